@@ -1,0 +1,1 @@
+"""Decision agents (installed as ``ns_pz.agents``)."""

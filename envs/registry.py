@@ -1,0 +1,161 @@
+"""The one registry of ns_pz environments.
+
+Every id names an environment family with default constructor arguments and a default time
+limit. Three ways to build one:
+
+* ``gymnasium.make("ns_pz/FrozenLake-v0", ...)``: the Gymnasium view, with Gymnasium's usual
+  wrappers; the time limit is Gymnasium's ``TimeLimit`` (``max_episode_steps=`` of
+  ``gymnasium.make`` overrides it, as for any Gymnasium env);
+* :func:`make_gym`: the same view, unwrapped, truncating by itself;
+* :func:`make`: the PettingZoo AEC game.
+
+Keyword arguments are split: ``params``, ``nature``, ``monitor``, ``notification``,
+``constraints``, ``max_episode_steps`` (and ``ground_truth_info`` / ``nature_reward`` for the
+view / game) configure the NS-MDP; everything else goes to the family's constructor
+(``map_name="8x8"``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import inspect
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium
+
+from ns_pz.errors import UnknownEnvironment
+from ns_pz.family import EnvFamily
+from ns_pz.game import NSGame
+from ns_pz.views import NSGymEnv
+
+_NS_KWARGS = {"params", "nature", "monitor", "notification", "constraints", "max_episode_steps"}
+_VIEW_KWARGS = _NS_KWARGS | {"ground_truth_info"}
+_GAME_KWARGS = _NS_KWARGS | {"nature_reward"}
+
+
+@dataclass(frozen=True)
+class NSEnvSpec:
+    """A registered environment: its family, default arguments and time limit."""
+
+    id: str
+    family: type[EnvFamily]
+    max_episode_steps: int
+    description: str
+    family_kwargs: Mapping[str, Any] = field(default_factory=dict)
+
+    def build_family(self, overrides: Mapping[str, Any]) -> EnvFamily:
+        """The family with the registered arguments, updated by ``overrides``.
+
+        Raises:
+            TypeError: An argument the family's constructor does not take.
+        """
+        kwargs = {**self.family_kwargs, **overrides}
+        signature = inspect.signature(self.family)
+        for name in kwargs:
+            if name not in signature.parameters:
+                allowed = sorted(set(signature.parameters) | _VIEW_KWARGS | _GAME_KWARGS)
+                raise TypeError(f"{self.id} takes no argument {name!r}; allowed: {allowed}")
+        return self.family(**kwargs)
+
+
+_SPECS: dict[str, NSEnvSpec] = {}
+
+
+def register(
+    id: str,
+    family: type[EnvFamily],
+    *,
+    max_episode_steps: int,
+    description: str,
+    **family_kwargs: Any,
+) -> None:
+    """Register an environment with ns_pz and with Gymnasium (which makes it conformance-tested)."""
+    _SPECS[id] = NSEnvSpec(id, family, max_episode_steps, description, dict(family_kwargs))
+    gymnasium.register(
+        id=id,
+        entry_point="ns_pz.envs.registry:_gymnasium_entry_point",
+        max_episode_steps=max_episode_steps,
+        kwargs={"env_id": id},
+    )
+
+
+def registered_envs() -> tuple[str, ...]:
+    """Ids of every registered environment, sorted."""
+    return tuple(sorted(_SPECS))
+
+
+def spec(env_id: str) -> NSEnvSpec:
+    """The registration of ``env_id``.
+
+    Raises:
+        UnknownEnvironment: ``env_id`` is not registered (the message suggests close ids).
+    """
+    try:
+        return _SPECS[env_id]
+    except KeyError:
+        close = difflib.get_close_matches(env_id, _SPECS, n=3)
+        hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
+        raise UnknownEnvironment(
+            f"no environment {env_id!r} is registered.{hint} Registered: {', '.join(_SPECS)}"
+        ) from None
+
+
+def make(env_id: str, **kwargs: Any) -> NSGame:
+    """The PettingZoo AEC game of a registered environment."""
+    env_spec = spec(env_id)
+    ns_kwargs, family_kwargs = _split(kwargs, _GAME_KWARGS)
+    ns_kwargs.setdefault("max_episode_steps", env_spec.max_episode_steps)
+    return NSGame(env_spec.build_family(family_kwargs), **ns_kwargs)
+
+
+def make_gym(env_id: str, **kwargs: Any) -> NSGymEnv:
+    """The Gymnasium view of a registered environment, unwrapped, with its own time limit."""
+    env_spec = spec(env_id)
+    ns_kwargs, family_kwargs = _split(kwargs, _VIEW_KWARGS)
+    ns_kwargs.setdefault("max_episode_steps", env_spec.max_episode_steps)
+    return NSGymEnv(env_spec.build_family(family_kwargs), **ns_kwargs)
+
+
+def _gymnasium_entry_point(env_id: str, **kwargs: Any) -> NSGymEnv:
+    """What ``gymnasium.make`` calls; Gymnasium's ``TimeLimit`` does the truncation."""
+    env_spec = spec(env_id)
+    ns_kwargs, family_kwargs = _split(kwargs, _VIEW_KWARGS)
+    ns_kwargs["max_episode_steps"] = None
+    return NSGymEnv(env_spec.build_family(family_kwargs), **ns_kwargs)
+
+
+def _split(kwargs: Mapping[str, Any], ns_names: set[str]) -> tuple[dict[str, Any], dict[str, Any]]:
+    ns_kwargs = {k: v for k, v in kwargs.items() if k in ns_names}
+    family_kwargs = {k: v for k, v in kwargs.items() if k not in ns_names}
+    return ns_kwargs, family_kwargs
+
+
+# --- the registered environments ------------------------------------------------------------
+from ns_pz.envs.cartpole import CartPoleFamily  # noqa: E402
+from ns_pz.envs.frozen_lake import FrozenLakeFamily  # noqa: E402
+
+# CartPole-v1's physics with gravity, masses, length, force and time step as θ.
+register(
+    "ns_pz/CartPole-v0",
+    CartPoleFamily,
+    max_episode_steps=500,
+    description="CartPole; θ: gravity, masscart, masspole, length, force_mag, tau",
+)
+# FrozenLake-v1 (4x4) with the slip vector [intended, action+1, action-1] as θ.
+register(
+    "ns_pz/FrozenLake-v0",
+    FrozenLakeFamily,
+    max_episode_steps=100,
+    description="FrozenLake 4x4; θ: slip vector",
+    map_name="4x4",
+)
+# The 8x8 lake, same θ.
+register(
+    "ns_pz/FrozenLake8x8-v0",
+    FrozenLakeFamily,
+    max_episode_steps=200,
+    description="FrozenLake 8x8; θ: slip vector",
+    map_name="8x8",
+)

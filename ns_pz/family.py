@@ -1,0 +1,74 @@
+"""Environment families: a θ, spaces, and dynamics written as functions of θ.
+
+A family holds what never changes within an environment (spaces, a map, outcome tables) and
+exposes dynamics in the style ``step(state, action, theta, rng) -> (next_state, reward,
+terminal)``. θ is an argument, never an attribute, so a change of θ can never be half-applied,
+and derived quantities (a total mass, a transition table) are computed from the θ handed in.
+
+States are small immutable values (an ``int`` for grid worlds, a tuple of floats for physics),
+so saving and restoring a simulator is copying a reference.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+
+from ns_pz.params import Params
+
+State = Any
+
+
+class EnvFamily(ABC):
+    """Base of every environment family.
+
+    Subclasses set :attr:`params_cls`, build :attr:`observation_space` and :attr:`action_space`
+    in ``__init__`` (constructor arguments fix the spaces; θ never changes them) and implement
+    the dynamics.
+    """
+
+    params_cls: ClassVar[type[Params]]
+    observation_space: spaces.Space[Any]
+    action_space: spaces.Space[Any]
+
+    def default_params(self) -> Params:
+        """θ with every parameter at its default."""
+        return self.params_cls()
+
+    @abstractmethod
+    def initial_state(self, rng: np.random.Generator) -> State:
+        """Draw a start state."""
+
+    @abstractmethod
+    def step(
+        self, state: State, action: Any, theta: Params, rng: np.random.Generator
+    ) -> tuple[State, float, bool]:
+        """One transition under ``theta``: next state, reward, whether it is terminal."""
+
+    @abstractmethod
+    def observe(self, state: State) -> Any:
+        """The observation of ``state``, an element of :attr:`observation_space`."""
+
+    def check_action(self, action: Any) -> Any:
+        """Return ``action`` in canonical form, or raise ``ValueError`` if it is not allowed."""
+        space = self.action_space
+        if isinstance(space, spaces.Discrete):
+            if type(action) is int and 0 <= action < space.n:
+                return action
+            if isinstance(action, (np.integer, np.ndarray)) and space.contains(action):
+                return int(action)
+        elif space.contains(np.asarray(action, dtype=space.dtype)):
+            return np.asarray(action, dtype=space.dtype)
+        raise ValueError(f"action={action!r} is outside the action space {space}")
+
+    def planning_model(self, theta: Params, state: State, rng: np.random.Generator) -> Any:
+        """A stationary model under ``theta`` positioned at ``state``."""
+        from ns_pz.planning import PlanningModel
+
+        return PlanningModel(self, theta, state, rng)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"

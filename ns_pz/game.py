@@ -1,0 +1,284 @@
+"""The NS-MDP as a PettingZoo AEC game: nature, then the monitor, then the decision agent.
+
+Each time step ``t``:
+
+1. ``nature`` observes ``[t, θ_{t-1} (flat), budget_left]`` and acts with Δθ (zero: no change).
+   The game projects θ_{t-1} + Δθ onto the allowed set (bounds, Lipschitz bound, budget): θ_t.
+2. ``monitor`` observes the last transition and acts with the notification for the agent
+   (``env_change`` flags and ``delta_change`` sizes), masked to the game's level.
+3. ``agent`` observes the state with that notification and acts; the base environment makes one
+   transition under θ_t, and every agent is rewarded: the agent gets r_t, nature -r_t
+   (``nature_reward="zero_sum"``, the default) or r_t (``"cooperative"``), the monitor 0.
+
+The episode ends for all three together when the base environment terminates or the time limit
+truncates. :meth:`NSGame.policy_action` gives the action of the configured nature and monitor
+policies, so any subset of the agents can be scripted while the others learn.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import AECEnv
+
+from ns_pz.family import EnvFamily
+from ns_pz.monitor.monitors import Monitor
+from ns_pz.monitor.notification import NotificationLevel
+from ns_pz.nature.constraints import NatureConstraints
+from ns_pz.nature.policies import Nature
+from ns_pz.observations import (
+    ObservationBuilder,
+    agent_observation_space,
+    monitor_action_space,
+    monitor_observation_space,
+    nature_action_space,
+    nature_observation_space,
+)
+from ns_pz.params import SIMPLEX, Params
+from ns_pz.process import GroundTruth, NSProcess, mask_notification
+
+NATURE = "nature"
+MONITOR = "monitor"
+DECISION = "agent"
+AGENTS = (NATURE, MONITOR, DECISION)
+NATURE_REWARDS = ("zero_sum", "cooperative", "none")
+
+
+class NSGame(AECEnv):
+    """The NS-MDP game over one environment family.
+
+    Args:
+        family: The environment family.
+        params: θ_0 (a parameter set or a mapping of names to values).
+        nature: The scripted nature policy :meth:`policy_action` follows (default: static).
+        monitor: The monitor policy :meth:`policy_action` follows (default: oracle).
+        notification: ``"none"``, ``"basic"`` or ``"detailed"``: what reaches the agent.
+        constraints: Lipschitz bound and budget enforced on every nature action.
+        max_episode_steps: Time steps after which all agents are truncated.
+        nature_reward: ``"zero_sum"`` (-r), ``"cooperative"`` (+r) or ``"none"`` (0).
+    """
+
+    metadata: dict[str, Any] = {"name": "ns_pz_game", "is_parallelizable": False, "render_modes": []}
+
+    def __init__(
+        self,
+        family: EnvFamily,
+        *,
+        params: Params | Mapping[str, Any] | None = None,
+        nature: Nature | None = None,
+        monitor: Monitor | None = None,
+        notification: str | NotificationLevel = "none",
+        constraints: NatureConstraints | None = None,
+        max_episode_steps: int | None = 500,
+        nature_reward: str = "zero_sum",
+    ) -> None:
+        super().__init__()
+        self._process = NSProcess(
+            family,
+            params=params,
+            nature=nature,
+            monitor=monitor,
+            notification=notification,
+            constraints=constraints,
+            max_episode_steps=max_episode_steps,
+        )
+        if nature_reward not in NATURE_REWARDS:
+            raise ValueError(f"nature_reward={nature_reward!r}; allowed: {NATURE_REWARDS}")
+        self._nature_sign = {"zero_sum": -1.0, "cooperative": 1.0, "none": 0.0}[nature_reward]
+        self._build = ObservationBuilder(family)
+        params_cls = family.params_cls
+        self.possible_agents = list(AGENTS)
+        self.agents = []
+        self.observation_spaces = {
+            NATURE: nature_observation_space(params_cls),
+            MONITOR: monitor_observation_space(family),
+            DECISION: agent_observation_space(family),
+        }
+        self.action_spaces = {
+            NATURE: nature_action_space(params_cls),
+            MONITOR: monitor_action_space(params_cls),
+            DECISION: family.action_space,
+        }
+        self._notification: tuple[tuple, tuple] = (self._process.no_change,) * 2
+
+    def observation_space(self, agent: str) -> spaces.Space[Any]:
+        """The (always identical) observation space of ``agent``."""
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Space[Any]:
+        """The (always identical) action space of ``agent``."""
+        return self.action_spaces[agent]
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
+        """Start an episode; a seed reseeds the environment, nature, monitor and planning."""
+        process = self._process
+        if seed is not None or process.env_rng is None:
+            process.seed(seed)
+        process.reset()
+        self.agents = list(AGENTS)
+        self.rewards = dict.fromkeys(AGENTS, 0.0)
+        self._cumulative_rewards = dict.fromkeys(AGENTS, 0.0)
+        self.terminations = dict.fromkeys(AGENTS, False)
+        self.truncations = dict.fromkeys(AGENTS, False)
+        self.infos = {agent: {} for agent in AGENTS}
+        self.agent_selection = NATURE
+        self._notification = (process.no_change, process.no_change)
+
+    def observe(self, agent: str) -> Any:
+        """What ``agent`` sees now (see :mod:`ns_pz.observations`)."""
+        process = self._process
+        if not process.started:
+            process.check_running("observe()")
+        if agent == NATURE:
+            return self._build.nature(process.t, process.theta, process.budget_left)
+        if agent == MONITOR:
+            return self._build.monitor(
+                process.last_state, process.last_action, process.last_reward, process.state,
+                process.t,
+            )
+        if agent == DECISION:
+            flags, sizes = self._notification
+            return self._build.agent(process.state, process.t, flags, sizes)
+        raise ValueError(f"agent={agent!r} is not one of {AGENTS}")
+
+    def step(self, action: Any) -> None:
+        """Take the selected agent's turn."""
+        agent = self.agent_selection
+        if self.terminations.get(agent) or self.truncations.get(agent):
+            self._was_dead_step(action)
+            return
+        process = self._process
+        process.check_running("step()")
+        self._cumulative_rewards[agent] = 0.0
+        self._clear_rewards()
+        if agent == NATURE:
+            process.nature_turn(self._proposal(action))
+            self.agent_selection = MONITOR
+        elif agent == MONITOR:
+            flags, sizes = _notification_of(action, self.action_spaces[MONITOR])
+            self._notification = mask_notification(process.level, flags, sizes, len(flags))
+            self.agent_selection = DECISION
+        else:
+            self._decision_turn(process.family.check_action(action))
+        self._accumulate_rewards()
+
+    def _decision_turn(self, action: Any) -> None:
+        process = self._process
+        reward, terminated, truncated = process.transition(action)
+        reward = float(reward)
+        self.rewards[DECISION] = reward
+        self.rewards[NATURE] = self._nature_sign * reward
+        self.rewards[MONITOR] = 0.0
+        if terminated or truncated:
+            self.terminations = dict.fromkeys(AGENTS, bool(terminated))
+            self.truncations = dict.fromkeys(AGENTS, bool(truncated))
+            self._notification = (process.no_change, process.no_change)
+        self.agent_selection = NATURE
+
+    def _proposal(self, action: Any) -> dict[str, Any] | None:
+        """Turn nature's Δθ into a proposal of new values (validated against the action space)."""
+        space = self.action_spaces[NATURE]
+        try:
+            delta = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"nature action={action!r} is not a numeric vector") from None
+        if delta.shape != space.shape or not space.contains(delta):
+            raise ValueError(f"nature action={action!r} is outside the action space {space}")
+        if not delta.any():
+            return None
+        theta = self._process.theta
+        proposal: dict[str, Any] = {}
+        start = 0
+        for spec in theta.specs():
+            chunk = delta[start:start + spec.size]
+            start += spec.size
+            if chunk.any():
+                value = getattr(theta, spec.name)
+                if spec.kind == SIMPLEX:
+                    proposal[spec.name] = tuple(float(p + d) for p, d in zip(value, chunk, strict=True))
+                else:
+                    proposal[spec.name] = value + float(chunk[0])
+        return proposal
+
+    # -- scripted agents, ground truth ------------------------------------------------------
+    def policy_action(self, agent: str) -> Any:
+        """The action the configured policy of ``agent`` takes now (nature or monitor).
+
+        For nature this advances the scripted policy's episode memory, so call it once per
+        nature turn. The Δθ is chosen so that θ + Δθ reproduces the proposed values exactly
+        whenever floating point allows.
+
+        Raises:
+            ValueError: ``agent`` is the decision agent, which has no configured policy.
+        """
+        process = self._process
+        process.check_running("policy_action()")
+        if agent == NATURE:
+            proposal = process.scripted_proposal()
+            return exact_delta(process.theta, proposal or {}, self.action_spaces[NATURE])
+        if agent == MONITOR:
+            flags, sizes = process.notification(self.observe(MONITOR))
+            return {
+                "env_change": np.array(flags, np.int8),
+                "delta_change": np.array(sizes, np.float32),
+            }
+        raise ValueError(f"agent={agent!r} has no configured policy; allowed: {NATURE!r}, {MONITOR!r}")
+
+    def ground_truth(self) -> GroundTruth:
+        """The true θ_0, current θ and change times of this episode (for evaluation)."""
+        return self._process.ground_truth()
+
+    def planning_model(self) -> Any:
+        """A stationary planning model for the decision agent (θ_0, or θ_t at ``detailed``)."""
+        return self._process.planning_model()
+
+    @property
+    def family(self) -> EnvFamily:
+        """The environment family."""
+        return self._process.family
+
+    def render(self) -> None:
+        """No rendering yet: the game has no visual state of its own."""
+        return None
+
+    def close(self) -> None:
+        """Nothing to release."""
+        return None
+
+
+def exact_delta(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -> np.ndarray:
+    """Δθ such that ``theta.flat() + Δθ`` equals the proposed values, clipped to ``space``.
+
+    Plain subtraction can miss the target by one unit in the last place; each such element is
+    nudged to the neighbouring float that hits it.
+    """
+    current = theta.flat()
+    target = current.copy()
+    start = 0
+    for spec in theta.specs():
+        if spec.name in proposal:
+            target[start:start + spec.size] = proposal[spec.name]
+        start += spec.size
+    delta = target - current
+    for i in np.flatnonzero(current + delta != target):
+        for direction in (np.inf, -np.inf):
+            nudged = np.nextafter(delta[i], direction)
+            if current[i] + nudged == target[i]:
+                delta[i] = nudged
+                break
+    return np.clip(delta, space.low, space.high)
+
+
+def _notification_of(action: Any, space: spaces.Dict) -> tuple[tuple, tuple]:
+    if not isinstance(action, Mapping) or set(action) != {"env_change", "delta_change"}:
+        raise ValueError(
+            f"monitor action={action!r} must be a dict with keys 'env_change' and 'delta_change'"
+        )
+    flags = np.asarray(action["env_change"])
+    sizes = np.asarray(action["delta_change"], dtype=np.float32)
+    if not space.contains({"env_change": flags.astype(np.int8), "delta_change": sizes}):
+        raise ValueError(f"monitor action={action!r} is outside the action space {space}")
+    return tuple(int(f) for f in flags), tuple(float(s) for s in sizes)

@@ -1,0 +1,136 @@
+"""What nature is allowed to do, and the projection that enforces it.
+
+Bounds come from the parameter specs. :class:`NatureConstraints` adds a Lipschitz bound (the
+largest change of one parameter in one step) and a total budget (the largest sum of change sizes
+over an episode). Sizes are measured as in :meth:`ns_pz.params.Params.change_sizes`: absolute
+difference for a scalar, W1 with the discrete ground metric (total variation) for a vector.
+
+:func:`admit` turns any proposal into an allowed θ in three stages:
+
+1. each proposed value is projected onto its spec (clipped into the bounds; a vector projected
+   onto the simplex);
+2. a parameter whose change exceeds its Lipschitz bound is moved only part of the way, along the
+   straight line from the old value towards the projected one;
+3. if the changes together exceed the budget left, all of them are shortened by one common
+   factor along the same lines.
+
+Bounds and the simplex are convex, so every point on those lines is allowed: the result is a
+valid θ whatever the proposal, which is what keeps a learned adversary inside the rules.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from ns_pz.params import SIMPLEX, Params, ParamSpec, Value
+
+
+@dataclass(frozen=True)
+class NatureConstraints:
+    """Limits on nature beyond the parameter bounds.
+
+    Attributes:
+        lipschitz: Largest change size per step, one number for every parameter or a mapping
+            from parameter name to its bound (parameters not named are unbounded). ``None``:
+            no per-step bound.
+        budget: Largest sum of change sizes over an episode. ``None``: unlimited.
+    """
+
+    lipschitz: float | Mapping[str, float] | None = None
+    budget: float | None = None
+    _per_param: Mapping[str, float] = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.budget is not None:
+            _check_limit("budget", self.budget)
+        if isinstance(self.lipschitz, Mapping):
+            per = {name: _check_limit(f"lipschitz[{name!r}]", v) for name, v in self.lipschitz.items()}
+            object.__setattr__(self, "_per_param", per)
+        elif self.lipschitz is not None:
+            _check_limit("lipschitz", self.lipschitz)
+
+    def check_names(self, params_cls: type[Params]) -> None:
+        """Raise :class:`~ns_pz.errors.UnknownParam` if a Lipschitz bound names no parameter."""
+        params_cls.check_names(self._per_param)
+
+    def lipschitz_of(self, name: str) -> float | None:
+        """The per-step bound of one parameter, or ``None``."""
+        if self.lipschitz is None or isinstance(self.lipschitz, Mapping):
+            return self._per_param.get(name)
+        return float(self.lipschitz)
+
+    @property
+    def unconstrained(self) -> bool:
+        """True when only the bounds apply (the common, fast case)."""
+        return self.lipschitz is None and self.budget is None
+
+
+def admit(
+    theta: Params,
+    proposal: Mapping[str, object],
+    constraints: NatureConstraints,
+    budget_left: float,
+) -> tuple[Params, dict[str, float]]:
+    """Project nature's proposal onto the allowed set.
+
+    Args:
+        theta: The current θ.
+        proposal: New values for some parameters, by name. Values may be out of bounds.
+        constraints: Lipschitz bound and budget.
+        budget_left: What remains of the episode budget (``inf`` when there is none).
+
+    Returns:
+        The new θ (``theta`` itself when nothing changes) and the size of each change that
+        happened, by parameter name.
+
+    Raises:
+        UnknownParam: A proposed name is not a parameter.
+        ParamOutOfRange: A proposed value is NaN or has the wrong shape.
+    """
+    owner = type(theta).__name__
+    granted: dict[str, Value] = {}
+    sizes: dict[str, float] = {}
+    for name, raw in proposal.items():
+        spec = theta.spec(name)
+        old = getattr(theta, name)
+        new = spec.project(owner, raw)
+        if new == old:
+            continue
+        size = spec.distance(old, new)
+        limit = constraints.lipschitz_of(name)
+        if limit is not None and size > limit:
+            new = _towards(spec, old, new, limit / size)
+            size = spec.distance(old, new)
+        granted[name] = new
+        sizes[name] = size
+    total = math.fsum(sizes.values())
+    if total > budget_left:
+        factor = budget_left / total
+        for name in list(granted):
+            spec = theta.spec(name)
+            old = getattr(theta, name)
+            granted[name] = _towards(spec, old, granted[name], factor)
+            sizes[name] = spec.distance(old, granted[name])
+        granted = {n: v for n, v in granted.items() if sizes[n] > 0.0}
+        sizes = {n: s for n, s in sizes.items() if s > 0.0}
+    if not granted:
+        return theta, {}
+    return theta.evolve_trusted(granted), sizes
+
+
+def _towards(spec: ParamSpec, old: Value, new: Value, fraction: float) -> Value:
+    """The point ``fraction`` of the way from ``old`` to ``new`` (0 <= fraction <= 1)."""
+    if spec.kind == SIMPLEX:
+        return tuple(o + fraction * (n - o) for o, n in zip(old, new, strict=True))  # type: ignore[arg-type]
+    moved = old + fraction * (new - old)  # type: ignore[operator]
+    return moved if spec.contains(moved) else old
+
+
+def _check_limit(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"{name}={value!r} must be a real number")
+    if math.isnan(value) or value < 0:
+        raise ValueError(f"{name}={value!r} must be >= 0")
+    return float(value)

@@ -1,0 +1,165 @@
+"""Nature policies: who proposes the next θ.
+
+A nature policy maps nature's observation (step ``t``, current θ, budget left) to a proposal,
+a mapping from parameter names to new values (``None`` for no change). The game projects every
+proposal onto the allowed set (:func:`ns_pz.nature.constraints.admit`).
+
+Policies are shared, immutable settings. What a policy must remember within an episode (how
+often each update function has fired) lives in a *memory* object that the environment creates
+with :meth:`Nature.initial_memory` at every reset and hands back at every step, so one policy
+instance can drive many environments at once.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ns_pz.nature.updates import DistributionUpdateFn, UpdateFn
+from ns_pz.params import SIMPLEX, Params, Value
+
+Proposal = Mapping[str, Value] | None
+
+
+class Nature(ABC):
+    """Base of every nature policy."""
+
+    def bind(self, params_cls: type[Params]) -> None:
+        """Check, once, that the policy fits a parameter set; raise a clear error if not."""
+
+    def initial_memory(self) -> Any:
+        """Fresh per-episode memory (``None`` for a memoryless policy)."""
+        return None
+
+    @abstractmethod
+    def propose(
+        self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
+    ) -> Proposal:
+        """The proposed changes at step ``t``, or ``None`` for none.
+
+        Args:
+            t: Step index (transitions completed since reset); the proposal applies to transition t.
+            theta: The θ in force so far (θ_{t-1}; θ_0 at t=0).
+            budget_left: What remains of the change budget (``inf`` when unlimited).
+            memory: This episode's memory, from :meth:`initial_memory`; may be updated in place.
+            rng: Nature's generator, seeded at reset.
+        """
+
+
+class StaticNature(Nature):
+    """Never changes θ: the environment is stationary."""
+
+    def propose(
+        self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
+    ) -> Proposal:
+        """Always ``None``."""
+        return None
+
+    def __repr__(self) -> str:
+        return "StaticNature()"
+
+
+class ScriptedNature(Nature):
+    """A schedule: each parameter follows one update function (NS-Gym's ``tunable_params``).
+
+    Args:
+        updates: Parameter name → update function. Scalar parameters take an
+            :class:`~ns_pz.nature.updates.UpdateFn`, probability vectors a
+            :class:`~ns_pz.nature.updates.DistributionUpdateFn`. Parameters not named stay fixed.
+
+    Each step, parameters are visited in the order given; for each, the scheduler is asked
+    first and the rule applied only if it fires, both drawing from nature's generator.
+    """
+
+    def __init__(self, updates: Mapping[str, UpdateFn | DistributionUpdateFn]) -> None:
+        if not isinstance(updates, Mapping):
+            raise TypeError(f"updates={updates!r} must be a mapping of parameter name to update fn")
+        for name, fn in updates.items():
+            if not isinstance(name, str):
+                raise TypeError(f"parameter name {name!r} in updates must be a str")
+            if not isinstance(fn, (UpdateFn, DistributionUpdateFn)):
+                raise TypeError(
+                    f"updates[{name!r}]={fn!r} must be an ns_pz update function "
+                    "(IncrementUpdate, StepWiseUpdate, DistributionDecrementUpdate, ...)"
+                )
+        self.updates = dict(updates)
+        self._entries = tuple(self.updates.items())
+
+    def bind(self, params_cls: type[Params]) -> None:
+        """Check names exist and each rule matches its parameter's kind.
+
+        Raises:
+            UnknownParam: A name is not a parameter of ``params_cls``.
+            TypeError: A scalar rule on a probability vector, or the reverse.
+            ValueError: A vector rule's vectors have the wrong length.
+        """
+        params_cls.check_names(self.updates)
+        for name, fn in self._entries:
+            spec = params_cls.spec(name)
+            if spec.kind == SIMPLEX:
+                if not isinstance(fn, DistributionUpdateFn):
+                    raise TypeError(
+                        f"{params_cls.__name__}.{name} is a probability vector; updates[{name!r}]"
+                        f"={fn!r} is a scalar rule (use a Distribution* update function)"
+                    )
+                fn.check_size(name, spec.size)
+            elif not isinstance(fn, UpdateFn):
+                raise TypeError(
+                    f"{params_cls.__name__}.{name} is a scalar; updates[{name!r}]={fn!r} is a "
+                    "distribution rule (use a scalar update function)"
+                )
+
+    def initial_memory(self) -> dict[str, int]:
+        """How often each parameter's rule has fired this episode (all zero)."""
+        return dict.fromkeys(self.updates, 0)
+
+    def propose(
+        self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
+    ) -> Proposal:
+        """New values for the parameters whose scheduler fires at ``t``."""
+        proposal: dict[str, Value] | None = None
+        for name, fn in self._entries:
+            if fn.scheduler(t, rng):
+                count = memory[name]
+                memory[name] = count + 1
+                if proposal is None:
+                    proposal = {}
+                proposal[name] = fn.update(getattr(theta, name), t, count, rng)  # type: ignore[arg-type]
+        return proposal
+
+    def __repr__(self) -> str:
+        return f"ScriptedNature({self.updates!r})"
+
+
+class RandomNature(Nature):
+    """Perturbs every parameter at every step: a stress test and a domain-randomisation baseline.
+
+    Scalars take a Gaussian step of standard deviation ``scale * (|value| + 1)``; each element of
+    a probability vector takes a step of standard deviation ``scale``, after which the game
+    projects the vector back onto the simplex.
+    """
+
+    def __init__(self, scale: float = 0.05) -> None:
+        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not scale >= 0:
+            raise ValueError(f"scale={scale!r} must be a real number >= 0")
+        self.scale = float(scale)
+
+    def propose(
+        self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
+    ) -> Proposal:
+        """A random step for every parameter."""
+        proposal: dict[str, Value] = {}
+        for spec in theta.specs():
+            value = getattr(theta, spec.name)
+            if spec.kind == SIMPLEX:
+                noise = rng.normal(0.0, self.scale, size=spec.size)
+                proposal[spec.name] = tuple(float(p + e) for p, e in zip(value, noise, strict=True))  # type: ignore[arg-type]
+            else:
+                proposal[spec.name] = value + self.scale * (abs(value) + 1.0) * float(rng.standard_normal())  # type: ignore[operator]
+        return proposal
+
+    def __repr__(self) -> str:
+        return f"RandomNature(scale={self.scale!r})"

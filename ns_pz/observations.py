@@ -1,0 +1,126 @@
+"""Observation and action spaces of the three agents, and the builders of their observations.
+
+Decision agent (and the Gymnasium view), a flat ``Dict``:
+
+* ``state``: the base environment's observation;
+* ``env_change``: ``MultiBinary(n)``, one flag per parameter in θ's field order;
+* ``delta_change``: ``Box(0, inf, (n,), float32)``, the size of each parameter's change;
+* ``relative_time``: ``Box(0, inf, (1,), float32)``, transitions since reset.
+
+Nature: a ``Box`` float32 vector ``[t, θ (flat, field order), budget_left]``; it acts with a
+``Box`` float64 vector Δθ in the same flat layout, so the all-zero action means "no change".
+
+Monitor: a ``Dict`` of the last transition (``last_state``, ``last_action``, ``last_reward``,
+``state``) and ``relative_time``; it acts with a ``Dict`` of ``env_change`` and
+``delta_change``, the notification it wants the agent to get.
+
+Every call returns fresh arrays: users may keep or modify what they are given.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from ns_pz.family import EnvFamily
+from ns_pz.params import Params
+
+
+def agent_observation_space(family: EnvFamily) -> spaces.Dict:
+    """The decision agent's observation space; independent of the notification level."""
+    count = len(family.params_cls.names())
+    return spaces.Dict(
+        {
+            "state": family.observation_space,
+            "env_change": spaces.MultiBinary(count),
+            "delta_change": spaces.Box(0.0, np.inf, (count,), np.float32),
+            "relative_time": _CLOCK,
+        }
+    )
+
+
+def nature_observation_space(params_cls: type[Params]) -> spaces.Box:
+    """``[t, θ flat..., budget_left]`` with θ's bounds, float32."""
+    low, high = params_cls.flat_bounds()
+    return spaces.Box(
+        np.concatenate(([0.0], low, [0.0])).astype(np.float32),
+        np.concatenate(([np.inf], high, [np.inf])).astype(np.float32),
+        dtype=np.float32,
+    )
+
+
+def nature_action_space(params_cls: type[Params]) -> spaces.Box:
+    """Δθ in flat layout, float64, bounded by the width of each parameter's range."""
+    low, high = params_cls.flat_bounds()
+    width = high - low
+    return spaces.Box(-width, width, dtype=np.float64)
+
+
+def monitor_observation_space(family: EnvFamily) -> spaces.Dict:
+    """The last transition and the clock."""
+    return spaces.Dict(
+        {
+            "last_state": family.observation_space,
+            "last_action": family.action_space,
+            "last_reward": spaces.Box(-np.inf, np.inf, (1,), np.float32),
+            "state": family.observation_space,
+            "relative_time": _CLOCK,
+        }
+    )
+
+
+def monitor_action_space(params_cls: type[Params]) -> spaces.Dict:
+    """The notification the monitor sends: flags and sizes, one per parameter."""
+    count = len(params_cls.names())
+    return spaces.Dict(
+        {
+            "env_change": spaces.MultiBinary(count),
+            "delta_change": spaces.Box(0.0, np.inf, (count,), np.float32),
+        }
+    )
+
+
+class ObservationBuilder:
+    """Builds the three agents' observations for one family."""
+
+    def __init__(self, family: EnvFamily) -> None:
+        self._observe = family.observe
+        self._null_action = _null_element(family.action_space)
+
+    def agent(self, state: Any, t: int, flags: tuple, sizes: tuple) -> dict:
+        """The decision agent's observation: one flag and one size per parameter."""
+        return {
+            "state": self._observe(state),
+            "env_change": np.array(flags, np.int8),
+            "delta_change": np.array(sizes, np.float32),
+            "relative_time": np.array((t,), np.float32),
+        }
+
+    def nature(self, t: int, theta: Params, budget_left: float) -> np.ndarray:
+        """Nature's observation ``[t, θ flat..., budget_left]``."""
+        return np.concatenate(([t], theta.flat(), [budget_left])).astype(np.float32)
+
+    def monitor(
+        self, last_state: Any, last_action: Any, last_reward: float, state: Any, t: int
+    ) -> dict:
+        """The monitor's observation of the last transition (a null action before the first)."""
+        return {
+            "last_state": self._observe(last_state),
+            "last_action": self._null_action if last_action is None else last_action,
+            "last_reward": np.array((last_reward,), np.float32),
+            "state": self._observe(state),
+            "relative_time": np.array((t,), np.float32),
+        }
+
+
+_CLOCK = spaces.Box(0.0, np.inf, (1,), np.float32)
+
+
+def _null_element(space: spaces.Space[Any]) -> Any:
+    if isinstance(space, spaces.Discrete):
+        return int(space.start)
+    if isinstance(space, spaces.Box):
+        return np.clip(np.zeros(space.shape, space.dtype), space.low, space.high)
+    raise TypeError(f"unsupported action space {space}")

@@ -1,0 +1,378 @@
+"""Parameter sets θ: immutable values with one spec per parameter.
+
+A family declares its θ as a frozen dataclass whose fields are made with :func:`scalar` or
+:func:`simplex`::
+
+    @dataclass(frozen=True, slots=True)
+    class CartPoleParams(Params):
+        masspole: float = scalar(0.1, low=0.0, low_open=True, unit="kg")
+
+        @property
+        def polemass_length(self) -> float:  # derived, so it can never go stale
+            return self.masspole * self.length
+
+Constructing a ``Params`` validates every field, so an invalid θ cannot exist. Nature's moves
+create new values (:meth:`Params.replace`); the old value stays valid for logs and planners.
+
+Change sizes (:meth:`Params.change_sizes`) are the absolute difference for a scalar and the
+Wasserstein-1 distance for a probability vector. The ground metric between the outcomes of a
+probability vector is the discrete metric (distance 1 between any two different outcomes), under
+which W1 equals the total-variation distance ``0.5 * sum(|p - q|)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Self
+
+import numpy as np
+
+from ns_pz.errors import ParamOutOfRange, UnknownParam
+
+SCALAR = "scalar"
+SIMPLEX = "simplex"
+SIMPLEX_ATOL = 1e-8
+"""How far from 1 the sum of a probability vector may be."""
+
+_SPEC_KEY = "ns_pz.param"
+
+Value = float | tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """What one parameter may be: its name, kind, default, bounds and unit.
+
+    Attributes:
+        name: The field name in the parameter set.
+        kind: ``"scalar"`` or ``"simplex"`` (a probability vector).
+        default: The value a family is built with.
+        low: Lower bound of a scalar (``-inf`` for none). Elements of a probability vector always
+            lie in ``[0, 1]``.
+        high: Upper bound of a scalar (``inf`` for none).
+        low_open: Whether ``low`` itself is excluded (a mass must be ``> 0``).
+        high_open: Whether ``high`` itself is excluded.
+        unit: Physical unit, for display.
+        doc: One line saying what the parameter means.
+        outcomes: For a probability vector, the name of each element, in order.
+    """
+
+    name: str
+    kind: str
+    default: Value
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+    unit: str = ""
+    doc: str = ""
+    outcomes: tuple[str, ...] = ()
+
+    @property
+    def size(self) -> int:
+        """Number of floats the parameter takes in a flat vector."""
+        return len(self.outcomes) if self.kind == SIMPLEX else 1
+
+    def allowed(self) -> str:
+        """The allowed set, as an error message shows it."""
+        if self.kind == SIMPLEX:
+            return f"probability vectors of length {self.size} (elements in [0, 1], sum 1)"
+        left = "(" if self.low_open else "["
+        right = ")" if self.high_open else "]"
+        return f"{left}{self.low}, {self.high}{right}"
+
+    def contains(self, value: float) -> bool:
+        """Whether a finite scalar lies inside the bounds."""
+        above = value > self.low if self.low_open else value >= self.low
+        below = value < self.high if self.high_open else value <= self.high
+        return above and below
+
+    def check(self, owner: str, value: Any) -> Value:
+        """Validate ``value`` and return it in canonical form (float, or tuple of floats).
+
+        Args:
+            owner: Name of the parameter-set class, for the message.
+            value: The candidate value.
+
+        Raises:
+            ParamOutOfRange: The value is not a finite number inside the bounds, or not a
+                probability vector of the right length.
+        """
+        where = f"{owner}.{self.name}={value!r}"
+        if self.kind == SCALAR:
+            number = _as_float(value, where)
+            if not math.isfinite(number):
+                raise ParamOutOfRange(f"{where} is not finite; allowed: {self.allowed()}")
+            if not self.contains(number):
+                raise ParamOutOfRange(f"{where} is outside {self.allowed()}")
+            return number
+        vector = _as_vector(value, where, self.size)
+        if not all(math.isfinite(p) for p in vector):
+            raise ParamOutOfRange(f"{where} is not finite; allowed: {self.allowed()}")
+        if any(p < 0.0 or p > 1.0 for p in vector):
+            raise ParamOutOfRange(f"{where} has an element outside [0, 1]")
+        total = math.fsum(vector)
+        if abs(total - 1.0) > SIMPLEX_ATOL:
+            raise ParamOutOfRange(
+                f"{where} sums to {total!r}, not 1 (tolerance {SIMPLEX_ATOL}); "
+                f"allowed: {self.allowed()}"
+            )
+        return vector
+
+    def project(self, owner: str, value: Any) -> Value:
+        """Return the admissible value nearest to ``value`` (Euclidean distance).
+
+        Used on nature's proposals: a nature may ask for anything, the game grants the nearest
+        allowed value. NaN has no nearest value and is refused.
+
+        Raises:
+            ParamOutOfRange: ``value`` contains NaN or is not a number / vector of the right size.
+        """
+        where = f"{owner}.{self.name}={value!r}"
+        if self.kind == SCALAR:
+            number = _as_float(value, where)
+            if math.isnan(number):
+                raise ParamOutOfRange(f"{where} is NaN; allowed: {self.allowed()}")
+            if self.contains(number):
+                return number
+            if number <= self.low:
+                return math.nextafter(self.low, math.inf) if self.low_open else self.low
+            return math.nextafter(self.high, -math.inf) if self.high_open else self.high
+        vector = _as_vector(value, where, self.size)
+        if any(math.isnan(p) for p in vector):
+            raise ParamOutOfRange(f"{where} contains NaN; allowed: {self.allowed()}")
+        if all(0.0 <= p <= 1.0 for p in vector) and abs(math.fsum(vector) - 1.0) <= SIMPLEX_ATOL:
+            return vector
+        return project_to_simplex(vector)
+
+    def distance(self, a: Value, b: Value) -> float:
+        """Size of the change from ``a`` to ``b``: |a - b|, or W1 (total variation) for vectors."""
+        if self.kind == SCALAR:
+            return abs(b - a)  # type: ignore[operator]
+        return 0.5 * math.fsum(abs(q - p) for p, q in zip(a, b, strict=True))  # type: ignore[arg-type]
+
+    def flat_bounds(self) -> tuple[list[float], list[float]]:
+        """Lower and upper bound of each float this parameter takes in a flat vector."""
+        if self.kind == SIMPLEX:
+            return [0.0] * self.size, [1.0] * self.size
+        return [self.low], [self.high]
+
+
+def project_to_simplex(vector: Sequence[float]) -> tuple[float, ...]:
+    """Euclidean projection of a finite vector onto the probability simplex.
+
+    Sort-based algorithm (Held, Wolfe & Crowder 1974): subtract the threshold that makes the
+    positive part sum to one.
+    """
+    ordered = sorted(vector, reverse=True)
+    running = 0.0
+    threshold = 0.0
+    for count, value in enumerate(ordered, start=1):
+        running += value
+        candidate = (running - 1.0) / count
+        if value - candidate > 0.0:
+            threshold = candidate
+    return tuple(max(p - threshold, 0.0) for p in vector)
+
+
+def scalar(
+    default: float,
+    *,
+    low: float = -math.inf,
+    high: float = math.inf,
+    low_open: bool = False,
+    high_open: bool = False,
+    unit: str = "",
+    doc: str = "",
+) -> Any:
+    """Declare a scalar parameter field of a :class:`Params` dataclass."""
+    meta = {"kind": SCALAR, "low": float(low), "high": float(high), "low_open": low_open,
+            "high_open": high_open, "unit": unit, "doc": doc}
+    return field(default=float(default), metadata={_SPEC_KEY: meta})
+
+
+def simplex(default: Sequence[float], *, outcomes: Sequence[str], doc: str = "") -> Any:
+    """Declare a probability-vector parameter field of a :class:`Params` dataclass.
+
+    Args:
+        default: The default vector; must lie on the simplex.
+        outcomes: One name per element, in order (``("intended", "clockwise", ...)``).
+        doc: One line saying what the vector means.
+    """
+    if len(default) != len(outcomes):
+        raise ValueError(
+            f"simplex default has {len(default)} elements but outcomes names {len(outcomes)}"
+        )
+    meta = {"kind": SIMPLEX, "low": 0.0, "high": 1.0, "outcomes": tuple(outcomes), "doc": doc}
+    return field(default=tuple(float(p) for p in default), metadata={_SPEC_KEY: meta})
+
+
+class Params:
+    """Base of every parameter set θ. Subclasses are ``@dataclass(frozen=True, slots=True)``.
+
+    Instances are immutable and validated at construction. The field order is the documented
+    fixed order used by flat vectors, ``env_change`` and ``delta_change``.
+    """
+
+    __slots__ = ()
+    _spec_cache: ClassVar[dict[type, tuple[ParamSpec, ...]]] = {}
+
+    def __post_init__(self) -> None:
+        owner = type(self).__name__
+        for spec in self.specs():
+            object.__setattr__(self, spec.name, spec.check(owner, getattr(self, spec.name)))
+
+    @classmethod
+    def specs(cls) -> tuple[ParamSpec, ...]:
+        """The spec of every parameter, in field order."""
+        cached = Params._spec_cache.get(cls)
+        if cached is None:
+            cached = tuple(_spec_of(cls, f) for f in dataclasses.fields(cls))  # type: ignore[arg-type]
+            Params._spec_cache[cls] = cached
+        return cached
+
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """Parameter names in field order."""
+        return tuple(spec.name for spec in cls.specs())
+
+    @classmethod
+    def spec(cls, name: str) -> ParamSpec:
+        """The spec of one parameter.
+
+        Raises:
+            UnknownParam: ``name`` is not a parameter of this set.
+        """
+        for spec in cls.specs():
+            if spec.name == name:
+                return spec
+        raise UnknownParam(_unknown_message(cls, name))
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any]) -> Self:
+        """Build from a mapping of names to values; names not given keep their default.
+
+        Raises:
+            UnknownParam: A name is not a parameter of this set.
+            ParamOutOfRange: A value is invalid.
+        """
+        cls.check_names(values)
+        return cls(**values)
+
+    @classmethod
+    def check_names(cls, names: Iterable[str]) -> None:
+        """Raise :class:`UnknownParam` for the first name this set does not declare."""
+        known = cls.names()
+        for name in names:
+            if name not in known:
+                raise UnknownParam(_unknown_message(cls, name))
+
+    def replace(self, **changes: Any) -> Self:
+        """A new, validated θ with some parameters changed; ``self`` is untouched.
+
+        Raises:
+            UnknownParam: A name is not a parameter of this set.
+            ParamOutOfRange: A new value is invalid.
+        """
+        self.check_names(changes)
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+    def evolve_trusted(self, changes: Mapping[str, Value]) -> Self:
+        """A new θ with ``changes`` applied *without* validation.
+
+        For the game's hot path only, after it has projected every value onto its spec; callers
+        outside ns_pz should use :meth:`replace`.
+        """
+        new = object.__new__(type(self))
+        for name in self.names():
+            object.__setattr__(new, name, changes[name] if name in changes else getattr(self, name))
+        return new
+
+    def as_dict(self) -> dict[str, Value]:
+        """Parameter values by name, in field order."""
+        return {name: getattr(self, name) for name in self.names()}
+
+    def flat(self) -> np.ndarray:
+        """All parameters as one float64 vector, in field order (vectors expanded)."""
+        out: list[float] = []
+        for spec in self.specs():
+            value = getattr(self, spec.name)
+            if spec.kind == SIMPLEX:
+                out.extend(value)
+            else:
+                out.append(value)
+        return np.array(out, dtype=np.float64)
+
+    @classmethod
+    def split_flat(cls, flat: Sequence[float]) -> dict[str, Value]:
+        """Cut a flat vector into per-parameter values (no validation)."""
+        values: dict[str, Value] = {}
+        start = 0
+        for spec in cls.specs():
+            chunk = [float(x) for x in flat[start:start + spec.size]]
+            values[spec.name] = tuple(chunk) if spec.kind == SIMPLEX else chunk[0]
+            start += spec.size
+        return values
+
+    @classmethod
+    def flat_size(cls) -> int:
+        """Length of :meth:`flat`."""
+        return sum(spec.size for spec in cls.specs())
+
+    @classmethod
+    def flat_bounds(cls) -> tuple[np.ndarray, np.ndarray]:
+        """Per-element lower and upper bounds of :meth:`flat` (float64)."""
+        lows: list[float] = []
+        highs: list[float] = []
+        for spec in cls.specs():
+            low, high = spec.flat_bounds()
+            lows.extend(low)
+            highs.extend(high)
+        return np.array(lows, dtype=np.float64), np.array(highs, dtype=np.float64)
+
+    def change_sizes(self, previous: Params) -> tuple[float, ...]:
+        """Size of each parameter's change from ``previous`` to ``self`` (0.0 if unchanged)."""
+        return tuple(
+            spec.distance(getattr(previous, spec.name), getattr(self, spec.name))
+            for spec in self.specs()
+        )
+
+
+def _spec_of(cls: type, f: dataclasses.Field[Any]) -> ParamSpec:
+    meta = f.metadata.get(_SPEC_KEY)
+    if meta is None:
+        raise TypeError(
+            f"{cls.__name__}.{f.name} must be declared with ns_pz.params.scalar() or simplex()"
+        )
+    return ParamSpec(name=f.name, default=f.default, **meta)
+
+
+def _unknown_message(cls: type[Params], name: str) -> str:
+    known = cls.names()
+    close = difflib.get_close_matches(name, known, n=3)
+    hint = f" (did you mean {', '.join(map(repr, close))}?)" if close else ""
+    return f"{cls.__name__} has no parameter {name!r}{hint}; known: {', '.join(known)}"
+
+
+def _as_float(value: Any, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        if isinstance(value, np.ndarray) and value.shape == ():
+            return float(value)
+        raise ParamOutOfRange(f"{where} is not a real number")
+    return float(value)
+
+
+def _as_vector(value: Any, where: str, size: int) -> tuple[float, ...]:
+    if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
+        raise ParamOutOfRange(f"{where} is not a sequence of {size} probabilities")
+    try:
+        vector = tuple(float(p) for p in value)
+    except (TypeError, ValueError):
+        raise ParamOutOfRange(f"{where} is not a sequence of {size} probabilities") from None
+    if len(vector) != size:
+        raise ParamOutOfRange(f"{where} has {len(vector)} elements, expected {size}")
+    return vector

@@ -1,0 +1,109 @@
+"""Planning models: what search agents simulate, thousands of times per decision.
+
+A :class:`PlanningModel` is stationary (θ is frozen inside it: planning never sees future
+changes) and cheap to save and restore, because the simulator state is a small immutable value.
+Search code either drives it statefully (``set_state`` / ``step``, the NS-Gym interface) or
+calls the pure :meth:`PlanningModel.transition`.
+
+Tabular families also hand out the explicit outcome table (:class:`TabularOutcomes`): outcome
+``k`` of action ``a`` in state ``s`` has probability ``probs[s, a, k]`` and leads to
+``next_states[s, a, k]`` with ``rewards[s, a, k]`` and ``terminals[s, a, k]``. Only ``probs``
+depends on θ; the other arrays belong to the map and are shared by every snapshot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ns_pz.params import Params
+
+if TYPE_CHECKING:
+    from ns_pz.family import EnvFamily, State
+
+
+class PlanningModel:
+    """A stationary generative model of one family under a fixed θ.
+
+    Args:
+        family: The environment family.
+        theta: The θ the model assumes, frozen for its lifetime.
+        state: The state it starts at.
+        rng: The generator its transitions draw from.
+    """
+
+    __slots__ = ("family", "theta", "rng", "_state", "_step")
+
+    def __init__(
+        self, family: EnvFamily, theta: Params, state: State, rng: np.random.Generator
+    ) -> None:
+        self.family = family
+        self.theta = theta
+        self.rng = rng
+        self._state = state
+        self._step = family.step
+
+    @property
+    def action_space(self) -> Any:
+        """The family's action space."""
+        return self.family.action_space
+
+    def get_state(self) -> State:
+        """The current simulator state (immutable: keep it to restore later)."""
+        return self._state
+
+    def set_state(self, state: State) -> None:
+        """Restore a state returned by :meth:`get_state`."""
+        self._state = state
+
+    def step(self, action: Any) -> tuple[State, float, bool]:
+        """Advance from the current state: next state, reward, terminal."""
+        result = self._step(self._state, action, self.theta, self.rng)
+        self._state = result[0]
+        return result
+
+    def transition(self, state: State, action: Any) -> tuple[State, float, bool]:
+        """One sampled transition from ``state``, leaving the model's own state alone."""
+        return self._step(state, action, self.theta, self.rng)
+
+    def clone(self) -> PlanningModel:
+        """A model at the same state, θ and generator (sharing them: state values are immutable)."""
+        return type(self)(self.family, self.theta, self._state, self.rng)
+
+
+@dataclass(frozen=True)
+class TabularOutcomes:
+    """The explicit transition table of a tabular family under one θ.
+
+    Attributes:
+        probs: ``[num_states, num_actions, num_outcomes]`` float64, rows sum to 1.
+        next_states: ``[num_states, num_actions, num_outcomes]`` int64.
+        rewards: ``[num_states, num_actions, num_outcomes]`` float64, reward of that outcome.
+        terminals: ``[num_states, num_actions, num_outcomes]`` bool, whether it ends the episode.
+    """
+
+    probs: np.ndarray
+    next_states: np.ndarray
+    rewards: np.ndarray
+    terminals: np.ndarray
+
+
+class TabularModel(PlanningModel):
+    """A planning model that also exposes its explicit outcome table."""
+
+    __slots__ = ("_outcomes",)
+
+    def __init__(
+        self, family: EnvFamily, theta: Params, state: State, rng: np.random.Generator
+    ) -> None:
+        super().__init__(family, theta, state, rng)
+        self._outcomes: TabularOutcomes | None = None
+
+    @property
+    def outcomes(self) -> TabularOutcomes:
+        """The outcome table under this model's θ (built on first use, then kept)."""
+        if self._outcomes is None:
+            self._outcomes = self.family.outcomes(self.theta)  # type: ignore[attr-defined]
+        return self._outcomes

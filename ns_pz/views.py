@@ -1,0 +1,184 @@
+"""The Gymnasium view: the NS-MDP game collapsed into a single-agent ``gymnasium.Env``.
+
+Nature and the monitor are fixed policies inside the environment; the decision agent is the
+Gymnasium agent. Observations are the flat ``Dict`` described in :mod:`ns_pz.observations`; the
+reward is the base environment's, a plain float. ``info`` is ``{}``: the true θ is never given
+to an agent unless asked for, through :meth:`NSGymEnv.ground_truth` or
+``ground_truth_info=True`` (which adds ``info["theta"]``, a dict of the θ in force).
+
+The view calls the same :class:`~ns_pz.process.NSProcess` turns as the AEC game, without the
+game's per-agent bookkeeping, so it yields the same trajectories at a fraction of the cost.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+
+from ns_pz.family import EnvFamily
+from ns_pz.monitor.monitors import Monitor
+from ns_pz.monitor.notification import NotificationLevel
+from ns_pz.nature.constraints import NatureConstraints
+from ns_pz.nature.policies import Nature
+from ns_pz.observations import ObservationBuilder, agent_observation_space
+from ns_pz.params import Params
+from ns_pz.process import GroundTruth, NSProcess
+
+
+class NSGymEnv(gym.Env[dict[str, Any], Any]):
+    """A non-stationary environment as an ordinary Gymnasium env.
+
+    Args:
+        family: The environment family (dynamics and θ).
+        params: θ_0, as a parameter set or a mapping of names to values.
+        nature: Who changes θ, e.g. ``ScriptedNature({"masspole": IncrementUpdate(...)})``.
+            Default: nobody (stationary).
+        monitor: Who decides the notification. Default: :class:`~ns_pz.monitor.OracleMonitor`.
+        notification: ``"none"``, ``"basic"`` or ``"detailed"``.
+        constraints: Lipschitz bound and budget on nature.
+        max_episode_steps: Transitions after which an episode is truncated.
+        ground_truth_info: Put the θ in force into ``info["theta"]`` (for evaluation only).
+    """
+
+    metadata: dict[str, Any] = {"render_modes": []}
+
+    def __init__(
+        self,
+        family: EnvFamily,
+        *,
+        params: Params | Mapping[str, Any] | None = None,
+        nature: Nature | None = None,
+        monitor: Monitor | None = None,
+        notification: str | NotificationLevel = "none",
+        constraints: NatureConstraints | None = None,
+        max_episode_steps: int | None = 500,
+        ground_truth_info: bool = False,
+    ) -> None:
+        self._process = NSProcess(
+            family,
+            params=params,
+            nature=nature,
+            monitor=monitor,
+            notification=notification,
+            constraints=constraints,
+            max_episode_steps=max_episode_steps,
+        )
+        self._build = ObservationBuilder(family)
+        self._ground_truth_info = bool(ground_truth_info)
+        self.observation_space = agent_observation_space(family)
+        self.action_space = family.action_space
+
+    # -- Gymnasium API ----------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Start an episode; a seed reseeds the environment, nature, monitor and planning."""
+        super().reset(seed=seed)
+        process = self._process
+        if seed is not None or process.env_rng is None:
+            process.seed(self.np_random_seed)
+            self._np_random = process.env_rng
+        process.reset()
+        no_change = process.no_change
+        obs = self._build.agent(process.state, 0, no_change, no_change)
+        return obs, self._info()
+
+    def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
+        """Nature's turn, then the transition under the new θ; the notification is about it."""
+        process = self._process
+        if process.done:
+            process.check_running("step()")
+        action = process.family.check_action(action)
+        proposal = process.nature.propose(
+            process.t, process.theta, process.budget_left, process.nature_memory,
+            process.nature_rng,  # type: ignore[arg-type]
+        )
+        if proposal:
+            process.nature_turn(proposal)
+        reward, terminated, truncated = process.transition(action)
+        if process.done:
+            flags = sizes = process.no_change
+        else:
+            observation = None
+            if process.monitor.needs_observation:
+                observation = self._monitor_observation()
+            flags, sizes = process.notification(observation)
+        obs = self._build.agent(process.state, process.t, flags, sizes)
+        return obs, float(reward), bool(terminated), bool(truncated), self._info()
+
+    # -- ns_pz extras -----------------------------------------------------------------------
+    @property
+    def family(self) -> EnvFamily:
+        """The environment family."""
+        return self._process.family
+
+    @property
+    def notification_level(self) -> NotificationLevel:
+        """What the agent is told about changes."""
+        return self._process.level
+
+    @property
+    def base_params(self) -> Params:
+        """θ_0, the parameters every episode starts from."""
+        return self._process.theta0
+
+    def set_params(self, **changes: Any) -> None:
+        """Change the θ in force now, by hand (validated; applies to the next transition).
+
+        Raises:
+            ResetNeeded: No episode is running.
+            UnknownParam: A name is not a parameter.
+            ParamOutOfRange: A value is invalid.
+        """
+        self._process.check_running("set_params()")
+        self._process.set_params(changes)
+
+    def ground_truth(self) -> GroundTruth:
+        """The true θ_0, current θ and change times of this episode (for evaluation)."""
+        return self._process.ground_truth()
+
+    def planning_model(self) -> Any:
+        """A stationary planning model at the current state (θ_0, or θ_t at ``detailed``).
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        return self._process.planning_model()
+
+    def get_planning_env(self) -> NSGymEnv:
+        """A stationary copy of this env at the current state, as a Gymnasium env.
+
+        Its θ is θ_0 at notification levels ``none`` and ``basic`` and the current θ at
+        ``detailed``; nature is frozen in it, so stepping it never changes θ. It continues the
+        clock (``relative_time``) and the time limit of this episode, and draws from its own
+        generator, derived from this env's seed.
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        twin = copy.copy(self)
+        twin._process = self._process.stationary_copy()
+        twin._np_random = twin._process.env_rng
+        return twin
+
+    # -- internals --------------------------------------------------------------------------
+    def _info(self) -> dict[str, Any]:
+        if self._ground_truth_info:
+            return {"theta": self._process.theta.as_dict()}
+        return {}
+
+    def _monitor_observation(self) -> dict[str, Any]:
+        process = self._process
+        return self._build.monitor(
+            process.last_state, process.last_action, process.last_reward, process.state, process.t
+        )
+
+    def __repr__(self) -> str:
+        process = self._process
+        return (
+            f"NSGymEnv({process.family!r}, nature={process.nature!r}, "
+            f"notification={process.level.value!r})"
+        )
