@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from ns_pz.envs.grid import Outcome, SlipGridFamily
+
 from ns_pz.params import Params, simplex
 
 MAPS = {

@@ -101,7 +101,13 @@ class SlipGridFamily(EnvFamily):
     ) -> Outcome:
         """Sample one slip outcome with θ's probabilities (one uniform draw)."""
         probs = getattr(theta, self._slip_param[state])
-        return self._table[state][action][_pick(probs, rng.random())]
+        u = rng.random()
+        total = 0.0
+        for k, p in enumerate(probs):
+            total += p
+            if u < total:
+                return self._table[state][action][k]
+        return self._table[state][action][_pick(probs, u)]
 
     def observe(self, state: int) -> int:
         """The state index ``row * ncol + col``."""

@@ -61,7 +61,11 @@ class NSGame(AECEnv):
         nature_reward: ``"zero_sum"`` (-r), ``"cooperative"`` (+r) or ``"none"`` (0).
     """
 
-    metadata: dict[str, Any] = {"name": "ns_pz_game", "is_parallelizable": False, "render_modes": []}
+    metadata: dict[str, Any] = {
+        "name": "ns_pz_game",
+        "is_parallelizable": False,
+        "render_modes": [],
+    }
 
     def __init__(
         self,
@@ -102,7 +106,16 @@ class NSGame(AECEnv):
             MONITOR: monitor_action_space(params_cls),
             DECISION: family.action_space,
         }
+        low, high = self.action_spaces[NATURE].low, self.action_spaces[NATURE].high
+        self._delta_bounds = tuple(zip(low.tolist(), high.tolist(), strict=True))
+        self._uniform_bounds = self._delta_bounds[0] if len(set(self._delta_bounds)) == 1 else None
+        self._flat_layout: list[tuple[str, bool, int, int]] = []
+        start = 0
+        for spec in params_cls.specs():
+            self._flat_layout.append((spec.name, spec.kind == SIMPLEX, start, start + spec.size))
+            start += spec.size
         self._notification: tuple[tuple, tuple] = (self._process.no_change,) * 2
+        self._rewarded = False
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
         """The (always identical) observation space of ``agent``."""
@@ -126,6 +139,7 @@ class NSGame(AECEnv):
         self.infos = {agent: {} for agent in AGENTS}
         self.agent_selection = NATURE
         self._notification = (process.no_change, process.no_change)
+        self._rewarded = False
 
     def observe(self, agent: str) -> Any:
         """What ``agent`` sees now (see :mod:`ns_pz.observations`)."""
@@ -141,7 +155,8 @@ class NSGame(AECEnv):
             )
         if agent == DECISION:
             flags, sizes = self._notification
-            return self._build.agent(process.state, process.t, flags, sizes)
+            quiet = flags is process.no_change and sizes is process.no_change
+            return self._build.agent(process.state, process.t, flags, sizes, quiet)
         raise ValueError(f"agent={agent!r} is not one of {AGENTS}")
 
     def step(self, action: Any) -> None:
@@ -151,27 +166,38 @@ class NSGame(AECEnv):
             self._was_dead_step(action)
             return
         process = self._process
-        process.check_running("step()")
+        if process.done:
+            process.check_running("step()")
+        # Rewards arise only from the transition at the end of the decision turn; the other
+        # turns just clear them and restart the acting agent's running total.
         self._cumulative_rewards[agent] = 0.0
-        self._clear_rewards()
         if agent == NATURE:
+            self._zero_rewards()
             process.nature_turn(self._proposal(action))
             self.agent_selection = MONITOR
         elif agent == MONITOR:
-            flags, sizes = _notification_of(action, self.action_spaces[MONITOR])
-            self._notification = mask_notification(process.level, flags, sizes, len(flags))
+            self._zero_rewards()
+            flags, sizes = _notification_of(action)
+            self._notification = mask_notification(process.level, flags, sizes, process.no_change)
             self.agent_selection = DECISION
         else:
             self._decision_turn(process.family.check_action(action))
-        self._accumulate_rewards()
+
+    def _zero_rewards(self) -> None:
+        if self._rewarded:
+            self.rewards = dict.fromkeys(AGENTS, 0.0)
+            self._rewarded = False
 
     def _decision_turn(self, action: Any) -> None:
         process = self._process
         reward, terminated, truncated = process.transition(action)
         reward = float(reward)
-        self.rewards[DECISION] = reward
-        self.rewards[NATURE] = self._nature_sign * reward
-        self.rewards[MONITOR] = 0.0
+        nature_reward = self._nature_sign * reward
+        self.rewards = {NATURE: nature_reward, MONITOR: 0.0, DECISION: reward}
+        self._rewarded = True
+        totals = self._cumulative_rewards
+        totals[NATURE] += nature_reward
+        totals[DECISION] += reward
         if terminated or truncated:
             self.terminations = dict.fromkeys(AGENTS, bool(terminated))
             self.truncations = dict.fromkeys(AGENTS, bool(truncated))
@@ -179,28 +205,43 @@ class NSGame(AECEnv):
         self.agent_selection = NATURE
 
     def _proposal(self, action: Any) -> dict[str, Any] | None:
-        """Turn nature's Δθ into a proposal of new values (validated against the action space)."""
-        space = self.action_spaces[NATURE]
-        try:
-            delta = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"nature action={action!r} is not a numeric vector") from None
-        if delta.shape != space.shape or not space.contains(delta):
-            raise ValueError(f"nature action={action!r} is outside the action space {space}")
-        if not delta.any():
+        """Turn nature's Δθ into a proposal of new values.
+
+        Raises:
+            ValueError: The action is not a finite vector inside nature's action space.
+        """
+        if type(action) is np.ndarray and action.ndim == 1 and action.dtype.kind in "fiu":
+            delta = action.tolist()
+        else:
+            delta = _as_vector(action, "nature action")
+            if np.ndim(action) != 1:
+                delta = []  # reported as outside the space below
+        if len(delta) != len(self._delta_bounds):
+            raise ValueError(
+                f"nature action={action!r} is outside the action space {self.action_spaces[NATURE]}"
+            )
+        if not any(delta):
             return None
+        total = sum(delta)
+        if self._uniform_bounds is not None:  # one min/max test; NaN makes the sum fail
+            low, high = self._uniform_bounds
+            inside = total == total and low <= min(delta) and max(delta) <= high
+        else:
+            inside = all(lo <= v <= hi for v, (lo, hi) in zip(delta, self._delta_bounds))
+        if not inside:
+            raise ValueError(
+                f"nature action={action!r} is outside the action space {self.action_spaces[NATURE]}"
+            )
         theta = self._process.theta
         proposal: dict[str, Any] = {}
-        start = 0
-        for spec in theta.specs():
-            chunk = delta[start:start + spec.size]
-            start += spec.size
-            if chunk.any():
-                value = getattr(theta, spec.name)
-                if spec.kind == SIMPLEX:
-                    proposal[spec.name] = tuple(float(p + d) for p, d in zip(value, chunk, strict=True))
-                else:
-                    proposal[spec.name] = value + float(chunk[0])
+        for name, is_vector, start, stop in self._flat_layout:
+            if is_vector:
+                chunk = delta[start:stop]
+                if any(chunk):
+                    value = getattr(theta, name)
+                    proposal[name] = tuple([p + d for p, d in zip(value, chunk, strict=True)])
+            elif delta[start]:
+                proposal[name] = getattr(theta, name) + delta[start]
         return proposal
 
     # -- scripted agents, ground truth ------------------------------------------------------
@@ -225,7 +266,9 @@ class NSGame(AECEnv):
                 "env_change": np.array(flags, np.int8),
                 "delta_change": np.array(sizes, np.float32),
             }
-        raise ValueError(f"agent={agent!r} has no configured policy; allowed: {NATURE!r}, {MONITOR!r}")
+        raise ValueError(
+            f"agent={agent!r} has no configured policy; allowed: {NATURE!r}, {MONITOR!r}"
+        )
 
     def ground_truth(self) -> GroundTruth:
         """The true θ_0, current θ and change times of this episode (for evaluation)."""
@@ -272,13 +315,26 @@ def exact_delta(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -
     return np.clip(delta, space.low, space.high)
 
 
-def _notification_of(action: Any, space: spaces.Dict) -> tuple[tuple, tuple]:
-    if not isinstance(action, Mapping) or set(action) != {"env_change", "delta_change"}:
+def _notification_of(action: Any) -> tuple[list, list]:
+    """Flags and sizes of a monitor action; lengths and sizes are checked by the masking."""
+    try:
+        flags, sizes = action["env_change"], action["delta_change"]
+    except (TypeError, KeyError, IndexError):
         raise ValueError(
             f"monitor action={action!r} must be a dict with keys 'env_change' and 'delta_change'"
-        )
-    flags = np.asarray(action["env_change"])
-    sizes = np.asarray(action["delta_change"], dtype=np.float32)
-    if not space.contains({"env_change": flags.astype(np.int8), "delta_change": sizes}):
-        raise ValueError(f"monitor action={action!r} is outside the action space {space}")
-    return tuple(int(f) for f in flags), tuple(float(s) for s in sizes)
+        ) from None
+    flag_list = _as_vector(flags, "monitor action env_change")
+    size_list = _as_vector(sizes, "monitor action delta_change")
+    if not set(flag_list) <= {0, 1}:
+        raise ValueError(f"monitor action env_change={flags!r} must hold only 0 and 1")
+    return flag_list, size_list
+
+
+def _as_vector(value: Any, what: str) -> list:
+    """A 1-D numeric array or sequence as a list of Python numbers."""
+    if type(value) is np.ndarray and value.ndim == 1 and value.dtype.kind in "fiub":
+        return value.tolist()
+    try:
+        return [float(x) for x in np.ravel(value)]
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}={value!r} is not a numeric vector") from None

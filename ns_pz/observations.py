@@ -86,21 +86,38 @@ class ObservationBuilder:
     """Builds the three agents' observations for one family."""
 
     def __init__(self, family: EnvFamily) -> None:
+        count = len(family.params_cls.names())
         self._observe = family.observe
         self._null_action = _null_element(family.action_space)
+        self._zero_flags = np.zeros(count, np.int8)
+        self._zero_sizes = np.zeros(count, np.float32)
+        self._zero_clock = np.zeros(1, np.float32)
 
-    def agent(self, state: Any, t: int, flags: tuple, sizes: tuple) -> dict:
-        """The decision agent's observation: one flag and one size per parameter."""
+    def agent(self, state: Any, t: int, flags: tuple, sizes: tuple, quiet: bool) -> dict:
+        """The decision agent's observation: one flag and one size per parameter.
+
+        ``quiet`` says the notification is all zero (copying a zero template is cheaper than
+        converting a tuple).
+        """
+        clock = self._zero_clock.copy()
+        clock[0] = t
+        if quiet:
+            return {
+                "state": self._observe(state),
+                "env_change": self._zero_flags.copy(),
+                "delta_change": self._zero_sizes.copy(),
+                "relative_time": clock,
+            }
         return {
             "state": self._observe(state),
             "env_change": np.array(flags, np.int8),
             "delta_change": np.array(sizes, np.float32),
-            "relative_time": np.array((t,), np.float32),
+            "relative_time": clock,
         }
 
     def nature(self, t: int, theta: Params, budget_left: float) -> np.ndarray:
         """Nature's observation ``[t, θ flat..., budget_left]``."""
-        return np.concatenate(([t], theta.flat(), [budget_left])).astype(np.float32)
+        return np.array([t, *theta.flat_values(), budget_left], np.float32)
 
     def monitor(
         self, last_state: Any, last_action: Any, last_reward: float, state: Any, t: int

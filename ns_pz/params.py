@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import math
+import operator
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Self
@@ -71,11 +72,11 @@ class ParamSpec:
     unit: str = ""
     doc: str = ""
     outcomes: tuple[str, ...] = ()
+    size: int = field(init=False)
+    """Number of floats the parameter takes in a flat vector."""
 
-    @property
-    def size(self) -> int:
-        """Number of floats the parameter takes in a flat vector."""
-        return len(self.outcomes) if self.kind == SIMPLEX else 1
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "size", len(self.outcomes) if self.kind == SIMPLEX else 1)
 
     def allowed(self) -> str:
         """The allowed set, as an error message shows it."""
@@ -132,6 +133,13 @@ class ParamSpec:
         Raises:
             ParamOutOfRange: ``value`` contains NaN or is not a number / vector of the right size.
         """
+        # Fast paths for values that are already admissible (NaN fails every comparison).
+        if type(value) is float:
+            if self.kind == SCALAR and self.contains(value):
+                return value
+        elif type(value) is tuple and len(value) == self.size and self.kind == SIMPLEX:
+            if min(value) >= 0.0 and max(value) <= 1.0 and abs(sum(value) - 1.0) <= SIMPLEX_ATOL:
+                return value
         where = f"{owner}.{self.name}={value!r}"
         if self.kind == SCALAR:
             number = _as_float(value, where)
@@ -153,7 +161,7 @@ class ParamSpec:
         """Size of the change from ``a`` to ``b``: |a - b|, or W1 (total variation) for vectors."""
         if self.kind == SCALAR:
             return abs(b - a)  # type: ignore[operator]
-        return 0.5 * math.fsum(abs(q - p) for p, q in zip(a, b, strict=True))  # type: ignore[arg-type]
+        return 0.5 * sum(map(abs, map(operator.sub, b, a)))  # type: ignore[arg-type]
 
     def flat_bounds(self) -> tuple[list[float], list[float]]:
         """Lower and upper bound of each float this parameter takes in a flat vector."""
@@ -219,7 +227,7 @@ class Params:
     """
 
     __slots__ = ()
-    _spec_cache: ClassVar[dict[type, tuple[ParamSpec, ...]]] = {}
+    _layouts: ClassVar[dict[type, _Layout]] = {}
 
     def __post_init__(self) -> None:
         owner = type(self).__name__
@@ -227,18 +235,23 @@ class Params:
             object.__setattr__(self, spec.name, spec.check(owner, getattr(self, spec.name)))
 
     @classmethod
+    def _layout(cls) -> _Layout:
+        layout = Params._layouts.get(cls)
+        if layout is None:
+            specs = tuple(_spec_of(cls, f) for f in dataclasses.fields(cls))  # type: ignore[arg-type]
+            layout = _Layout(specs, tuple(s.name for s in specs), {s.name: s for s in specs})
+            Params._layouts[cls] = layout
+        return layout
+
+    @classmethod
     def specs(cls) -> tuple[ParamSpec, ...]:
         """The spec of every parameter, in field order."""
-        cached = Params._spec_cache.get(cls)
-        if cached is None:
-            cached = tuple(_spec_of(cls, f) for f in dataclasses.fields(cls))  # type: ignore[arg-type]
-            Params._spec_cache[cls] = cached
-        return cached
+        return cls._layout().specs
 
     @classmethod
     def names(cls) -> tuple[str, ...]:
         """Parameter names in field order."""
-        return tuple(spec.name for spec in cls.specs())
+        return cls._layout().names
 
     @classmethod
     def spec(cls, name: str) -> ParamSpec:
@@ -247,10 +260,10 @@ class Params:
         Raises:
             UnknownParam: ``name`` is not a parameter of this set.
         """
-        for spec in cls.specs():
-            if spec.name == name:
-                return spec
-        raise UnknownParam(_unknown_message(cls, name))
+        found = cls._layout().by_name.get(name)
+        if found is None:
+            raise UnknownParam(_unknown_message(cls, name))
+        return found
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any]) -> Self:
@@ -287,8 +300,10 @@ class Params:
         For the game's hot path only, after it has projected every value onto its spec; callers
         outside ns_pz should use :meth:`replace`.
         """
-        new = object.__new__(type(self))
-        for name in self.names():
+        cls = type(self)
+        layout = Params._layouts.get(cls) or cls._layout()
+        new = object.__new__(cls)
+        for name in layout.names:
             object.__setattr__(new, name, changes[name] if name in changes else getattr(self, name))
         return new
 
@@ -298,14 +313,18 @@ class Params:
 
     def flat(self) -> np.ndarray:
         """All parameters as one float64 vector, in field order (vectors expanded)."""
+        return np.array(self.flat_values(), dtype=np.float64)
+
+    def flat_values(self) -> list[float]:
+        """All parameters as one list of floats, in field order (vectors expanded)."""
         out: list[float] = []
-        for spec in self.specs():
+        for spec in self._layout().specs:
             value = getattr(self, spec.name)
             if spec.kind == SIMPLEX:
                 out.extend(value)
             else:
                 out.append(value)
-        return np.array(out, dtype=np.float64)
+        return out
 
     @classmethod
     def split_flat(cls, flat: Sequence[float]) -> dict[str, Value]:
@@ -340,6 +359,15 @@ class Params:
             spec.distance(getattr(previous, spec.name), getattr(self, spec.name))
             for spec in self.specs()
         )
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Per-class lookup tables, built once."""
+
+    specs: tuple[ParamSpec, ...]
+    names: tuple[str, ...]
+    by_name: dict[str, ParamSpec]
 
 
 def _spec_of(cls: type, f: dataclasses.Field[Any]) -> ParamSpec:

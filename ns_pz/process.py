@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,14 +44,14 @@ class GroundTruth:
         theta: θ in force now (the one the last transition used).
         change_times: Steps at which θ changed (a change at ``t`` applies to transition ``t``).
         change_values: θ after each of those changes.
-        budget_used: Sum of all change sizes so far.
+        total_change: Sum of the sizes of all changes so far (what a budget is charged).
     """
 
     theta0: Params
     theta: Params
     change_times: tuple[int, ...]
     change_values: tuple[Params, ...]
-    budget_used: float
+    total_change: float
 
 
 class NSProcess:
@@ -122,8 +122,7 @@ class NSProcess:
         self.last_action: Any = None
         self.last_reward = 0.0
         self.last_state: State = None
-        self.pending_sizes = self.no_change
-        self.last_sizes = self.no_change
+        self.last_change: tuple[Params, Params] | None = None
         self.budget_used = 0.0
         self.change_times: list[int] = []
         self.change_values: list[Params] = []
@@ -151,8 +150,7 @@ class NSProcess:
         self.last_action = None
         self.last_reward = 0.0
         self.last_state = self.state
-        self.pending_sizes = self.no_change
-        self.last_sizes = self.no_change
+        self.last_change = None
         self.budget_used = 0.0
         self.change_times = []
         self.change_values = []
@@ -188,8 +186,9 @@ class NSProcess:
         theta, sizes = admit(self.theta, proposal, self.constraints, self.budget_left)
         if theta is self.theta:
             return
-        self.budget_used += math.fsum(sizes.values())
-        self._record_change(theta, sizes)
+        if sizes is not None:
+            self.budget_used += math.fsum(sizes.values())
+        self._record_change(theta)
 
     def set_params(self, changes: Mapping[str, Any]) -> None:
         """Change θ now, by hand: validated strictly (no projection), applies to transition ``t``.
@@ -202,15 +201,11 @@ class NSProcess:
             ParamOutOfRange: A value is invalid.
         """
         theta = self.theta.replace(**changes)
-        sizes = theta.change_sizes(self.theta)
-        if any(sizes):
-            self._record_change(theta, dict(zip(self.param_names, sizes, strict=True)))
+        if theta != self.theta:
+            self._record_change(theta)
 
-    def _record_change(self, theta: Params, sizes: Mapping[str, float]) -> None:
-        if self.pending_sizes is self.no_change:
-            self.pending_sizes = tuple(sizes.get(name, 0.0) for name in self.param_names)
-        else:  # a second change within one step: measure against θ at the start of the step
-            self.pending_sizes = theta.change_sizes(self._step_start_theta)
+    def _record_change(self, theta: Params) -> None:
+        """Make ``theta`` the θ in force; log it as the change at step ``t`` (one per step)."""
         self.theta = theta
         if self.change_times and self.change_times[-1] == self.t:
             self.change_values[-1] = theta
@@ -226,13 +221,24 @@ class NSProcess:
             hides them.
         """
         level = self.level
-        if level is NotificationLevel.NONE or (
-            self.monitor.reads_ground_truth and self.last_sizes is self.no_change
-        ):
+        if level is NotificationLevel.NONE:
             return self.no_change, self.no_change
-        truth = self.last_sizes if self.monitor.reads_ground_truth else None
-        flags, sizes = self.monitor.notify(observation, truth, self.monitor_memory, self.monitor_rng)  # type: ignore[arg-type]
-        return mask_notification(level, flags, sizes, len(self.param_names))
+        truth = None
+        if self.monitor.reads_ground_truth:
+            if self.last_change is None:
+                return self.no_change, self.no_change
+            truth = self.last_sizes()
+        flags, sizes = self.monitor.notify(
+            observation, truth, self.monitor_memory, self.monitor_rng  # type: ignore[arg-type]
+        )
+        return mask_notification(level, flags, sizes, self.no_change)
+
+    def last_sizes(self) -> tuple[float, ...]:
+        """True size of each parameter's change behind the last transition (zeros if none)."""
+        if self.last_change is None:
+            return self.no_change
+        before, after = self.last_change
+        return after.change_sizes(before)
 
     def transition(self, action: Any) -> tuple[float, bool, bool]:
         """Draw the next state under the current θ and advance the clock.
@@ -246,9 +252,12 @@ class NSProcess:
         )
         self.last_action = action
         self.last_reward = reward
-        self.last_sizes = self.pending_sizes
-        self.pending_sizes = self.no_change
-        self._step_start_theta = self.theta
+        theta = self.theta
+        if theta is self._step_start_theta:
+            self.last_change = None
+        else:
+            self.last_change = (self._step_start_theta, theta)
+            self._step_start_theta = theta
         self.t += 1
         limit = self.max_episode_steps
         truncated = limit is not None and self.t >= limit
@@ -288,7 +297,7 @@ class NSProcess:
         twin.nature_memory = None
         twin.constraints = _UNCONSTRAINED
         twin.env_rng = self.planning_rng()
-        twin.pending_sizes = twin.last_sizes = self.no_change
+        twin.last_change = None
         twin.change_times = []
         twin.change_values = []
         twin.budget_used = 0.0
@@ -296,12 +305,13 @@ class NSProcess:
 
     def ground_truth(self) -> GroundTruth:
         """The true θ trajectory of this episode so far."""
+        total = 0.0
+        previous = self.theta0
+        for value in self.change_values:
+            total += math.fsum(value.change_sizes(previous))
+            previous = value
         return GroundTruth(
-            self.theta0,
-            self.theta,
-            tuple(self.change_times),
-            tuple(self.change_values),
-            self.budget_used,
+            self.theta0, self.theta, tuple(self.change_times), tuple(self.change_values), total
         )
 
 
@@ -310,28 +320,35 @@ _UNCONSTRAINED = NatureConstraints()
 
 
 def mask_notification(
-    level: NotificationLevel, flags: Any, sizes: Any, count: int
-) -> tuple[tuple[int, ...], tuple[float, ...]]:
-    """Keep what the level shows of a notification; validate its shape.
+    level: NotificationLevel, flags: Sequence[Any], sizes: Sequence[Any], no_change: tuple
+) -> tuple[tuple, tuple]:
+    """Keep what the level shows of a notification, after checking it.
+
+    Args:
+        level: The notification level.
+        flags: One 0/1 flag per parameter.
+        sizes: One change size per parameter.
+        no_change: The process's all-zero tuple, returned for what the level hides.
 
     Raises:
         ValueError: ``flags`` or ``sizes`` do not have one entry per parameter, or a size is
             negative or not finite.
     """
-    flags = tuple(int(bool(f)) for f in flags)
-    sizes = tuple(float(s) for s in sizes)
+    count = len(no_change)
     if len(flags) != count or len(sizes) != count:
         raise ValueError(
             f"a notification needs {count} flags and {count} sizes (one per parameter), "
             f"got {len(flags)} and {len(sizes)}"
         )
-    if not all(math.isfinite(s) and s >= 0.0 for s in sizes):
-        raise ValueError(f"notification sizes {sizes!r} must be finite and >= 0")
-    if not level.shows_flags:
-        return (0,) * count, (0.0,) * count
+    total = sum(sizes)
+    if not (total < math.inf and min(sizes) >= 0.0):  # the sum is NaN or inf if any size is
+        raise ValueError(f"notification sizes {list(sizes)!r} must be finite and >= 0")
+    if not level.shows_flags or not any(flags):
+        return no_change, no_change
+    shown_flags = tuple([1 if f else 0 for f in flags])
     if not level.shows_sizes:
-        return flags, (0.0,) * count
-    return flags, sizes
+        return shown_flags, no_change
+    return shown_flags, tuple([float(s) for s in sizes])
 
 
 def _check_params(family: EnvFamily, params: Params | Mapping[str, Any] | None) -> Params:

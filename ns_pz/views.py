@@ -83,7 +83,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             self._np_random = process.env_rng
         process.reset()
         no_change = process.no_change
-        obs = self._build.agent(process.state, 0, no_change, no_change)
+        obs = self._build.agent(process.state, 0, no_change, no_change, True)
         return obs, self._info()
 
     def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
@@ -106,7 +106,8 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             if process.monitor.needs_observation:
                 observation = self._monitor_observation()
             flags, sizes = process.notification(observation)
-        obs = self._build.agent(process.state, process.t, flags, sizes)
+        quiet = sizes is process.no_change and flags is process.no_change
+        obs = self._build.agent(process.state, process.t, flags, sizes, quiet)
         return obs, float(reward), bool(terminated), bool(truncated), self._info()
 
     # -- ns_pz extras -----------------------------------------------------------------------

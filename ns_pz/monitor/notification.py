@@ -13,10 +13,10 @@ The observation fields exist at every level, so the observation space never depe
 
 from __future__ import annotations
 
-from enum import Enum
+from enum import StrEnum
 
 
-class NotificationLevel(str, Enum):
+class NotificationLevel(StrEnum):
     """How much the decision agent learns about changes of θ."""
 
     NONE = "none"

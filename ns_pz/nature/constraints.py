@@ -46,7 +46,7 @@ class NatureConstraints:
         if self.budget is not None:
             _check_limit("budget", self.budget)
         if isinstance(self.lipschitz, Mapping):
-            per = {name: _check_limit(f"lipschitz[{name!r}]", v) for name, v in self.lipschitz.items()}
+            per = {n: _check_limit(f"lipschitz[{n!r}]", v) for n, v in self.lipschitz.items()}
             object.__setattr__(self, "_per_param", per)
         elif self.lipschitz is not None:
             _check_limit("lipschitz", self.lipschitz)
@@ -72,7 +72,7 @@ def admit(
     proposal: Mapping[str, object],
     constraints: NatureConstraints,
     budget_left: float,
-) -> tuple[Params, dict[str, float]]:
+) -> tuple[Params, dict[str, float] | None]:
     """Project nature's proposal onto the allowed set.
 
     Args:
@@ -83,41 +83,65 @@ def admit(
 
     Returns:
         The new θ (``theta`` itself when nothing changes) and the size of each change that
-        happened, by parameter name.
+        happened, by parameter name; ``None`` instead of the sizes when no Lipschitz bound or
+        budget applies, as they are then not needed to decide anything.
 
     Raises:
         UnknownParam: A proposed name is not a parameter.
         ParamOutOfRange: A proposed value is NaN or has the wrong shape.
     """
     owner = type(theta).__name__
+    by_name = theta._layout().by_name
     granted: dict[str, Value] = {}
+    if constraints.lipschitz is None and budget_left == math.inf:
+        for name, raw in proposal.items():
+            spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
+            new = spec.project(owner, raw)
+            if new != getattr(theta, name):
+                granted[name] = new
+        return (theta.evolve_trusted(granted) if granted else theta), None
     sizes: dict[str, float] = {}
+    free = constraints.lipschitz is None
     for name, raw in proposal.items():
-        spec = theta.spec(name)
+        spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
         old = getattr(theta, name)
         new = spec.project(owner, raw)
         if new == old:
             continue
         size = spec.distance(old, new)
-        limit = constraints.lipschitz_of(name)
-        if limit is not None and size > limit:
-            new = _towards(spec, old, new, limit / size)
-            size = spec.distance(old, new)
+        if not free:
+            limit = constraints.lipschitz_of(name)
+            if limit is not None and size > limit:
+                new = _towards(spec, old, new, limit / size)
+                size = spec.distance(old, new)
         granted[name] = new
         sizes[name] = size
-    total = math.fsum(sizes.values())
-    if total > budget_left:
-        factor = budget_left / total
-        for name in list(granted):
-            spec = theta.spec(name)
-            old = getattr(theta, name)
-            granted[name] = _towards(spec, old, granted[name], factor)
-            sizes[name] = spec.distance(old, granted[name])
-        granted = {n: v for n, v in granted.items() if sizes[n] > 0.0}
-        sizes = {n: s for n, s in sizes.items() if s > 0.0}
     if not granted:
-        return theta, {}
+        return theta, sizes
+    if budget_left != math.inf:
+        total = math.fsum(sizes.values())
+        if total > budget_left:
+            granted, sizes = _within_budget(theta, granted, sizes, budget_left / total)
+            if not granted:
+                return theta, sizes
     return theta.evolve_trusted(granted), sizes
+
+
+def _within_budget(
+    theta: Params, granted: dict[str, Value], sizes: dict[str, float], factor: float
+) -> tuple[dict[str, Value], dict[str, float]]:
+    """Shorten every granted change by ``factor``; drop those that vanish."""
+    kept: dict[str, Value] = {}
+    kept_sizes: dict[str, float] = {}
+    for name, new in granted.items():
+        spec = theta.spec(name)
+        old = getattr(theta, name)
+        moved = _towards(spec, old, new, factor)
+        size = spec.distance(old, moved)
+        if size > 0.0:
+            kept[name] = moved
+            kept_sizes[name] = size
+    return kept, kept_sizes
 
 
 def _towards(spec: ParamSpec, old: Value, new: Value, fraction: float) -> Value:

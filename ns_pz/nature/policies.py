@@ -27,7 +27,7 @@ Proposal = Mapping[str, Value] | None
 class Nature(ABC):
     """Base of every nature policy."""
 
-    def bind(self, params_cls: type[Params]) -> None:
+    def bind(self, params_cls: type[Params]) -> None:  # noqa: B027 - optional hook
         """Check, once, that the policy fits a parameter set; raise a clear error if not."""
 
     def initial_memory(self) -> Any:
@@ -156,9 +156,11 @@ class RandomNature(Nature):
             value = getattr(theta, spec.name)
             if spec.kind == SIMPLEX:
                 noise = rng.normal(0.0, self.scale, size=spec.size)
-                proposal[spec.name] = tuple(float(p + e) for p, e in zip(value, noise, strict=True))  # type: ignore[arg-type]
+                pairs = zip(value, noise, strict=True)  # type: ignore[call-overload]
+                proposal[spec.name] = tuple(float(p + e) for p, e in pairs)
             else:
-                proposal[spec.name] = value + self.scale * (abs(value) + 1.0) * float(rng.standard_normal())  # type: ignore[operator]
+                step = self.scale * (abs(value) + 1.0) * float(rng.standard_normal())  # type: ignore[arg-type]
+                proposal[spec.name] = value + step  # type: ignore[operator]
         return proposal
 
     def __repr__(self) -> str:

@@ -26,7 +26,7 @@ from ns_pz.params import SIMPLEX_ATOL
 Vector = tuple[float, ...]
 
 
-class _Update(ABC):
+class _Update:
     """Common part of scalar and distribution update functions: the scheduler."""
 
     def __init__(self, scheduler: Scheduler) -> None:
@@ -94,7 +94,7 @@ class DecrementUpdate(UpdateFn):
 
 
 class StepWiseUpdate(UpdateFn):
-    """Sets the value to ``param_list[n]`` at the n-th firing; no change once the list is used up."""
+    """Sets the value to ``param_list[n]`` at the n-th firing; no change once the list is spent."""
 
     def __init__(self, scheduler: Scheduler, param_list: Sequence[float]) -> None:
         super().__init__(scheduler)
@@ -135,17 +135,23 @@ class DistributionNoUpdate(DistributionUpdateFn):
 class DistributionIncrementUpdate(DistributionUpdateFn):
     """Raises the first element (the intended outcome) by ``k`` at each firing.
 
-    The first element is clipped to [0, 1]; the mass left, ``1 - p[0]``, is shared among the other
-    outcomes in their current proportions (equally when they are all zero). With equal
-    perpendicular slips this is NS-Gym's "remaining mass split equally".
+    The first element is clipped to [0, 1] and the mass left, ``1 - p[0]``, is split equally
+    among the other outcomes (NS-Gym's rule; an uneven tail is evened out).
     """
 
     def __init__(self, scheduler: Scheduler, k: float) -> None:
         super().__init__(scheduler)
         self.k = check_real("k", k)
 
+    def check_size(self, param: str, size: int) -> None:
+        """The rule needs at least two outcomes to move mass between."""
+        if size < 2:
+            raise ValueError(
+                f"{type(self).__name__} needs a vector of >= 2 outcomes; {param!r} has {size}"
+            )
+
     def update(self, value: Vector, t: int, n: int, rng: np.random.Generator) -> Vector:
-        """``value`` with ``p[0] += k`` and the rest rescaled to keep the sum at 1."""
+        """``p[0] + k`` (clipped), the rest shared equally."""
         return shift_first(value, self.k)
 
 
@@ -153,7 +159,7 @@ class DistributionDecrementUpdate(DistributionIncrementUpdate):
     """Lowers the first element (the intended outcome) by ``k``; see the increment rule."""
 
     def update(self, value: Vector, t: int, n: int, rng: np.random.Generator) -> Vector:
-        """``value`` with ``p[0] -= k`` and the rest rescaled to keep the sum at 1."""
+        """``p[0] - k`` (clipped), the rest shared equally."""
         return shift_first(value, -self.k)
 
 
@@ -185,14 +191,13 @@ class DistributionStepWiseUpdate(DistributionUpdateFn):
 
 
 def shift_first(value: Vector, k: float) -> Vector:
-    """Move ``k`` of probability mass onto (or, for negative ``k``, off) the first element."""
-    first = min(max(value[0] + k, 0.0), 1.0)
-    rest = value[1:]
-    rest_total = math.fsum(rest)
-    left = 1.0 - first
-    if rest_total > 0.0:
-        return (first, *(left * p / rest_total for p in rest))
-    return (first, *(left / len(rest) for _ in rest))
+    """Add ``k`` to the first element (clipped to [0, 1]) and share the rest equally."""
+    first = value[0] + k
+    if first < 0.0:
+        first = 0.0
+    elif first > 1.0:
+        first = 1.0
+    return (first,) + ((1.0 - first) / (len(value) - 1),) * (len(value) - 1)
 
 
 def check_real(name: str, value: object) -> float:

@@ -1,0 +1,240 @@
+"""Cost of the NS-MDP core relative to the raw Gymnasium step, measured in one run.
+
+For CartPole and FrozenLake it times, per transition:
+
+* ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x);
+* ``view, change every step`` / ``view, single change``: the ns_pz Gymnasium view
+  (``gymnasium.make("ns_pz/...").unwrapped.step``) with θ changed at every step
+  (``ContinuousScheduler`` + ``IncrementUpdate`` / ``DistributionDecrementUpdate``) or once
+  (``DiscreteScheduler({1})``);
+* ``AEC cycle``: the game's three turns (nature with a Δθ at every step, monitor, agent) given
+  precomputed actions, and the same cycle with ``observe`` called for every agent before it acts,
+  as a loop of learning agents would;
+* with ``ns_gym`` importable, NS-Gym's wrappers on the same schedules.
+
+Resets are not timed. Each round times every case once, in a row; a ratio is taken within each
+round and the median over rounds is reported, which keeps drifting machine load out of the
+ratios. It also times the planning model's save + restore and ``get_planning_env()``.
+
+Run: ``python benchmarks/bench_core.py`` (``--smoke`` for a seconds-long check that it runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from collections.abc import Callable
+
+import gymnasium as gym
+import numpy as np
+
+import ns_pz
+from ns_pz.nature import (
+    ContinuousScheduler,
+    DiscreteScheduler,
+    DistributionDecrementUpdate,
+    IncrementUpdate,
+    ScriptedNature,
+)
+
+try:  # NS-Gym, for a side-by-side measurement when it is installed
+    import ns_gym.schedulers as ng_schedulers
+    import ns_gym.update_functions as ng_updates
+    import ns_gym.wrappers as ng_wrappers
+except ImportError:
+    ng_wrappers = None
+
+Runner = Callable[[list[int]], float]
+SLIP = (1 / 3, 1 / 3, 1 / 3)
+
+
+def time_gym(env: gym.Env, actions: list[int], seed: int) -> float:
+    """Seconds per ``env.step`` over ``actions``, resets excluded."""
+    env.reset(seed=seed)
+    step = env.step
+    total = 0.0
+    i = 0
+    n = len(actions)
+    while i < n:
+        start = time.perf_counter()
+        while i < n:
+            _, _, terminated, truncated, _ = step(actions[i])
+            i += 1
+            if terminated or truncated:
+                break
+        total += time.perf_counter() - start
+        if i < n:
+            env.reset()
+    return total / n
+
+
+def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) -> float:
+    """Seconds per AEC cycle (nature, monitor, agent turns), resets and dead steps excluded."""
+    theta_size = game.action_space(ns_pz.NATURE).shape[0]
+    nudge = np.zeros(theta_size)  # a tiny Δθ on the first flat element (mass-preserving for a vector)
+    nudge[0] = 1e-9
+    if "slip" in game.family.params_cls.names():
+        nudge[1:] = -1e-9 / (theta_size - 1)
+    quiet = {
+        "env_change": np.zeros(len(game.family.params_cls.names()), np.int8),
+        "delta_change": np.zeros(len(game.family.params_cls.names()), np.float32),
+    }
+    game.reset(seed=seed)
+    step, obs = game.step, game.observe
+    total = 0.0
+    i = 0
+    n = len(actions)
+    while i < n:
+        start = time.perf_counter()
+        while i < n:
+            if observe:
+                obs(ns_pz.NATURE)
+            step(nudge)
+            if observe:
+                obs(ns_pz.MONITOR)
+            step(quiet)
+            if observe:
+                obs(ns_pz.DECISION)
+            step(actions[i])
+            i += 1
+            if game.terminations[ns_pz.NATURE] or game.truncations[ns_pz.NATURE]:
+                break
+        total += time.perf_counter() - start
+        if i < n:
+            game.reset()
+    return total / n
+
+
+def cases(name: str) -> dict[str, Runner]:
+    """Every timed variant for one environment ("CartPole" or "FrozenLake")."""
+    if name == "CartPole":
+        base_id, ns_id, param = "CartPole-v1", "ns_pz/CartPole-v0", "masspole"
+
+        def rule(scheduler):  # noqa: ANN001, ANN202
+            return IncrementUpdate(scheduler, k=1e-4)
+    else:
+        base_id, ns_id, param = "FrozenLake-v1", "ns_pz/FrozenLake-v0", "slip"
+
+        def rule(scheduler):  # noqa: ANN001, ANN202
+            return DistributionDecrementUpdate(scheduler, k=1e-4)
+
+    every = ScriptedNature({param: rule(ContinuousScheduler(start=0))})
+    once = ScriptedNature({param: rule(DiscreteScheduler({1}))})
+    raw = gym.make(base_id).unwrapped
+    view_every = gym.make(ns_id, nature=every).unwrapped
+    view_once = gym.make(ns_id, nature=once).unwrapped
+    game = ns_pz.make(ns_id)
+    runners: dict[str, Runner] = {
+        "raw": lambda a: time_gym(raw, a, 0),
+        "view, change every step": lambda a: time_gym(view_every, a, 0),
+        "view, single change": lambda a: time_gym(view_once, a, 0),
+        "AEC cycle, change every step": lambda a: time_game(game, a, 0, observe=False),
+        "AEC cycle + observe, every step": lambda a: time_game(game, a, 0, observe=True),
+    }
+    if ng_wrappers is not None:
+        runners.update(nsgym_cases(name))
+    return runners
+
+
+def nsgym_cases(name: str) -> dict[str, Runner]:
+    """NS-Gym 1.0.12 wrappers on the same schedules."""
+    def build(scheduler_fn: Callable[[], object]) -> gym.Env:
+        if name == "CartPole":
+            update = ng_updates.IncrementUpdate(scheduler_fn(), k=1e-4)
+            return ng_wrappers.NSClassicControlWrapper(gym.make("CartPole-v1"), {"masspole": update})
+        update = ng_updates.DistributionDecrementUpdate(scheduler_fn(), k=1e-4)
+        return ng_wrappers.NSFrozenLakeWrapper(
+            gym.make("FrozenLake-v1"), {"P": update}, initial_prob_dist=list(SLIP)
+        )
+
+    every = build(ng_schedulers.ContinuousScheduler)
+    once = build(lambda: ng_schedulers.DiscreteScheduler({1}))
+    return {
+        "NS-Gym, change every step": lambda a: time_gym(every, a, 0),
+        "NS-Gym, single change": lambda a: time_gym(once, a, 0),
+    }
+
+
+def measure(name: str, steps: int, rounds: int) -> None:
+    """Print µs per step and the median ratio to ``raw`` for every case of one env."""
+    runners = cases(name)
+    num_actions = 2 if name == "CartPole" else 4
+    actions = np.random.default_rng(0).integers(0, num_actions, steps).tolist()
+    seconds: dict[str, list[float]] = {case: [] for case in runners}
+    for _ in range(rounds):
+        for case, run in runners.items():
+            seconds[case].append(run(actions))
+    print(f"\n{name}: {steps} steps x {rounds} rounds (median)")
+    print(f"  {'case':36s} {'us/step':>9s} {'x raw':>7s}")
+    for case, times in seconds.items():
+        ratio = statistics.median(t / r for t, r in zip(times, seconds["raw"], strict=True))
+        print(f"  {case:36s} {statistics.median(times) * 1e6:9.2f} {ratio:7.2f}")
+
+
+def measure_planning(name: str, repeats: int) -> None:
+    """Planning model save + restore and get_planning_env(), in µs."""
+    ns_id = "ns_pz/CartPole-v0" if name == "CartPole" else "ns_pz/FrozenLake-v0"
+    env = gym.make(ns_id, notification="detailed").unwrapped
+    env.reset(seed=0)
+    model = env.planning_model()
+
+    def save_restore() -> None:
+        for _ in range(repeats):
+            model.set_state(model.get_state())
+
+    def planning_env() -> None:
+        for _ in range(repeats // 100):
+            env.get_planning_env()
+
+    save = _best_of(save_restore) / repeats
+    copy_env = _best_of(planning_env) / (repeats // 100)
+    print(f"  {name} planning model save + restore: {save * 1e6:.3f} us;"
+          f" get_planning_env(): {copy_env * 1e6:.1f} us")
+    if ng_wrappers is not None:
+        if name == "CartPole":
+            update = ng_updates.IncrementUpdate(ng_schedulers.ContinuousScheduler(), k=1e-4)
+            ng = ng_wrappers.NSClassicControlWrapper(
+                gym.make("CartPole-v1"), {"masspole": update}, change_notification=True,
+                delta_change_notification=True,
+            )
+        else:
+            update = ng_updates.DistributionDecrementUpdate(ng_schedulers.ContinuousScheduler(), k=1e-4)
+            ng = ng_wrappers.NSFrozenLakeWrapper(
+                gym.make("FrozenLake-v1"), {"P": update}, change_notification=True,
+                delta_change_notification=True, initial_prob_dist=list(SLIP),
+            )
+        ng.reset(seed=0)
+        count = max(repeats // 1000, 5)
+        ng_copy = _best_of(lambda: [ng.get_planning_env() for _ in range(count)]) / count
+        print(f"  {name} NS-Gym get_planning_env(): {ng_copy * 1e6:.1f} us")
+
+
+def _best_of(fn: Callable[[], object], rounds: int = 5) -> float:
+    best = float("inf")
+    for _ in range(rounds):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def main() -> None:
+    """Run every measurement."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=20_000, help="steps per case and round")
+    parser.add_argument("--rounds", type=int, default=9, help="rounds (ratios: median)")
+    parser.add_argument("--smoke", action="store_true", help="tiny run that checks it works")
+    args = parser.parse_args()
+    steps, rounds = (300, 2) if args.smoke else (args.steps, args.rounds)
+    print(f"ns_pz {ns_pz.__version__}, gymnasium {gym.__version__}, "
+          f"NS-Gym {'present' if ng_wrappers is not None else 'not installed (skipped)'}")
+    for name in ("CartPole", "FrozenLake"):
+        measure(name, steps, rounds)
+    print("\nPlanning")
+    for name in ("CartPole", "FrozenLake"):
+        measure_planning(name, 1000 if args.smoke else 100_000)
+
+
+if __name__ == "__main__":
+    main()
