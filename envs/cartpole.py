@@ -27,14 +27,18 @@ X_THRESHOLD = 2.4
 
 @dataclass(frozen=True, slots=True)
 class CartPoleParams(Params):
-    """Physical constants of CartPole (defaults: Gymnasium's)."""
+    """Physical constants of CartPole (defaults: Gymnasium's).
 
-    gravity: float = scalar(9.8, low=0.0, unit="m/s^2", doc="gravitational acceleration")
-    masscart: float = scalar(1.0, low=0.0, low_open=True, unit="kg", doc="mass of the cart")
-    masspole: float = scalar(0.1, low=0.0, low_open=True, unit="kg", doc="mass of the pole")
-    length: float = scalar(0.5, low=0.0, low_open=True, unit="m", doc="half the pole's length")
-    force_mag: float = scalar(10.0, low=0.0, unit="N", doc="force of one push")
-    tau: float = scalar(0.02, low=0.0, low_open=True, unit="s", doc="time between states")
+    Bounds are physical and keep the dynamics finite: masses of at least a gram, a pole of at
+    least a millimetre, at most 1000 kg (the NS-Gym paper's continuous schedule reaches 250 kg).
+    """
+
+    gravity: float = scalar(9.8, low=0.0, high=1e3, unit="m/s^2", doc="gravitational acceleration")
+    masscart: float = scalar(1.0, low=1e-3, high=1e3, unit="kg", doc="mass of the cart")
+    masspole: float = scalar(0.1, low=1e-3, high=1e3, unit="kg", doc="mass of the pole")
+    length: float = scalar(0.5, low=1e-3, high=1e2, unit="m", doc="half the pole's length")
+    force_mag: float = scalar(10.0, low=0.0, high=1e4, unit="N", doc="force of one push")
+    tau: float = scalar(0.02, low=1e-4, high=1.0, unit="s", doc="time between states")
 
     @property
     def total_mass(self) -> float:
@@ -64,10 +68,10 @@ class CartPoleFamily(EnvFamily):
             )
         self.kinematics_integrator = kinematics_integrator
         self._euler = kinematics_integrator == "euler"
-        high = np.array(
-            [X_THRESHOLD * 2, np.inf, THETA_THRESHOLD_RADIANS * 2, np.inf], dtype=np.float32
-        )
-        self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        # Gymnasium declares |x| <= 4.8 and |angle| <= 0.42, which holds for its fixed constants;
+        # under changing θ (a short pole, a light cart) the terminating step can overshoot, so
+        # the space is unbounded to contain every reachable observation.
+        self.observation_space = spaces.Box(-np.inf, np.inf, (4,), dtype=np.float32)
         self.action_space = spaces.Discrete(2)
 
     def initial_state(self, rng: np.random.Generator) -> State:

@@ -80,6 +80,7 @@ class NSGame(AECEnv):
         nature_reward: str = "zero_sum",
     ) -> None:
         super().__init__()
+        self.render_mode = None
         self._process = NSProcess(
             family,
             params=params,
@@ -116,6 +117,7 @@ class NSGame(AECEnv):
             start += spec.size
         self._notification: tuple[tuple, tuple] = (self._process.no_change,) * 2
         self._rewarded = False
+        self._scripted: tuple[np.ndarray, list, Any] | None = None
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
         """The (always identical) observation space of ``agent``."""
@@ -173,7 +175,13 @@ class NSGame(AECEnv):
         self._cumulative_rewards[agent] = 0.0
         if agent == NATURE:
             self._zero_rewards()
-            process.nature_turn(self._proposal(action))
+            scripted = self._scripted
+            if scripted is not None and action is scripted[0] and action.tolist() == scripted[1]:
+                proposal = scripted[2]  # the policy's own values, exact
+            else:
+                proposal = self._proposal(action)
+            self._scripted = None
+            process.nature_turn(proposal)
             self.agent_selection = MONITOR
         elif agent == MONITOR:
             self._zero_rewards()
@@ -249,8 +257,9 @@ class NSGame(AECEnv):
         """The action the configured policy of ``agent`` takes now (nature or monitor).
 
         For nature this advances the scripted policy's episode memory, so call it once per
-        nature turn. The Δθ is chosen so that θ + Δθ reproduces the proposed values exactly
-        whenever floating point allows.
+        nature turn. It returns Δθ; θ + Δθ may miss a scripted value by a rounding error (no
+        float Δ turns 1.0 into 0.3 exactly), so the game remembers the exact values behind the
+        array it hands out and grants those when that same, unmodified array is stepped.
 
         Raises:
             ValueError: ``agent`` is the decision agent, which has no configured policy.
@@ -259,7 +268,9 @@ class NSGame(AECEnv):
         process.check_running("policy_action()")
         if agent == NATURE:
             proposal = process.scripted_proposal()
-            return exact_delta(process.theta, proposal or {}, self.action_spaces[NATURE])
+            delta = delta_of(process.theta, proposal or {}, self.action_spaces[NATURE])
+            self._scripted = (delta, delta.tolist(), proposal)
+            return delta
         if agent == MONITOR:
             flags, sizes = process.notification(self.observe(MONITOR))
             return {
@@ -292,12 +303,8 @@ class NSGame(AECEnv):
         return None
 
 
-def exact_delta(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -> np.ndarray:
-    """Δθ such that ``theta.flat() + Δθ`` equals the proposed values, clipped to ``space``.
-
-    Plain subtraction can miss the target by one unit in the last place; each such element is
-    nudged to the neighbouring float that hits it.
-    """
+def delta_of(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -> np.ndarray:
+    """Δθ (flat, clipped to nature's action space) that moves ``theta`` to the proposed values."""
     current = theta.flat()
     target = current.copy()
     start = 0
@@ -305,14 +312,7 @@ def exact_delta(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -
         if spec.name in proposal:
             target[start:start + spec.size] = proposal[spec.name]
         start += spec.size
-    delta = target - current
-    for i in np.flatnonzero(current + delta != target):
-        for direction in (np.inf, -np.inf):
-            nudged = np.nextafter(delta[i], direction)
-            if current[i] + nudged == target[i]:
-                delta[i] = nudged
-                break
-    return np.clip(delta, space.low, space.high)
+    return np.clip(target - current, space.low, space.high)
 
 
 def _notification_of(action: Any) -> tuple[list, list]:

@@ -1,0 +1,213 @@
+"""The conformance suite every registered environment passes.
+
+:func:`check_ns_env` runs, for one environment id:
+
+* PettingZoo's ``api_test`` and ``seed_test`` on the AEC game, with nature perturbing every
+  parameter at every step so that θ really moves;
+* Gymnasium's ``check_env`` on the Gymnasium view, at every notification level;
+* the ns_pz invariants: θ is a valid parameter set after every nature move, whatever nature
+  asks for; no θ object is ever mutated; the same seed gives the same θ trajectory,
+  notifications and states; the turn order is nature → monitor → agent; the game and the view
+  give identical trajectories for the same seed and actions.
+
+``tests/test_conformance.py`` runs it over :func:`ns_pz.registered_envs`, so registering an
+environment is what gets it tested.
+"""
+
+from __future__ import annotations
+
+import copy
+import warnings
+from typing import Any
+
+import numpy as np
+from gymnasium.utils.env_checker import check_env, data_equivalence
+from pettingzoo.test import api_test, seed_test
+
+from ns_pz.envs.registry import make, make_gym
+from ns_pz.game import AGENTS, DECISION, MONITOR, NATURE, NSGame
+from ns_pz.monitor.notification import NotificationLevel
+from ns_pz.nature.constraints import NatureConstraints
+from ns_pz.nature.policies import RandomNature
+from ns_pz.params import Params
+
+STRESS_SCALE = 0.2
+"""Relative size of the random steps the stress nature takes (large enough to hit bounds)."""
+
+
+def check_ns_env(env_id: str, *, num_cycles: int = 60, **kwargs: Any) -> None:
+    """Run the whole conformance suite on ``env_id``; raise ``AssertionError`` on a failure.
+
+    Args:
+        env_id: A registered id.
+        num_cycles: Time steps each dynamic check runs for.
+        **kwargs: Passed to the environment (e.g. family arguments such as ``map_name``).
+    """
+    check_game_api(env_id, num_cycles, **kwargs)
+    check_view_api(env_id, **kwargs)
+    check_theta_invariants(env_id, num_cycles, **kwargs)
+    check_reproducible(env_id, num_cycles, **kwargs)
+    check_turn_order(env_id, **kwargs)
+    check_game_matches_view(env_id, num_cycles, **kwargs)
+
+
+def _stress_game(env_id: str, num_cycles: int, **kwargs: Any) -> NSGame:
+    kwargs.setdefault("nature", RandomNature(STRESS_SCALE))
+    kwargs.setdefault("notification", "detailed")
+    kwargs.setdefault("max_episode_steps", num_cycles)
+    return make(env_id, **kwargs)
+
+
+def check_game_api(env_id: str, num_cycles: int = 60, **kwargs: Any) -> None:
+    """PettingZoo's ``api_test`` and ``seed_test`` on the game."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # style advice (dict observations, ...)
+        api_test(_stress_game(env_id, num_cycles, **kwargs), num_cycles=num_cycles)
+        seed_test(lambda: _stress_game(env_id, num_cycles, **kwargs), num_cycles=num_cycles)
+
+
+def check_view_api(env_id: str, **kwargs: Any) -> None:
+    """Gymnasium's ``check_env`` (determinism, spaces, close) on the view at every level."""
+    for level in NotificationLevel:
+        env = make_gym(
+            env_id, nature=RandomNature(STRESS_SCALE), notification=level.value, **kwargs
+        )
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            check_env(env, skip_render_check=True)
+
+
+def check_theta_invariants(env_id: str, num_cycles: int = 60, **kwargs: Any) -> None:
+    """θ stays valid and unmutated under a learned-style nature taking arbitrary actions.
+
+    Nature's actions are drawn from its whole action space (so they often ask for values out of
+    bounds) with a Lipschitz bound and a budget in force; every θ the game reports must pass
+    validation, respect the bound and the budget, and still hold the values it had when first
+    seen at the end of the run.
+    """
+    lipschitz, budget = 0.5, 3.0
+    game = make(
+        env_id,
+        constraints=NatureConstraints(lipschitz=lipschitz, budget=budget),
+        max_episode_steps=num_cycles,
+        **kwargs,
+    )
+    game.reset(seed=7)
+    rng = np.random.default_rng(7)
+    space = game.action_space(NATURE)
+    seen: list[tuple[Params, dict[str, Any]]] = []
+    previous = game.ground_truth().theta
+    for agent in game.agent_iter():
+        _, _, terminated, truncated, _ = game.last()
+        if terminated or truncated:
+            game.step(None)
+            continue
+        if agent == NATURE:
+            delta = rng.uniform(space.low, space.high) if np.isfinite(space.low).all() else (
+                rng.normal(0.0, 10.0, space.shape)
+            )
+            game.step(np.clip(delta, space.low, space.high))
+            truth = game.ground_truth()
+            theta = truth.theta
+            _assert_valid(theta)
+            sizes = theta.change_sizes(previous)
+            assert max(sizes) <= lipschitz + 1e-9, f"Lipschitz bound broken: {sizes}"
+            assert truth.total_change <= budget + 1e-9, f"budget broken: {truth.total_change}"
+            seen.append((theta, copy.deepcopy(theta.as_dict())))
+            previous = theta
+        else:
+            action = game.policy_action(MONITOR) if agent == MONITOR else None
+            game.step(action if action is not None else game.action_space(agent).sample())
+    for theta, values in seen:
+        assert theta.as_dict() == values, f"a θ object was mutated: {values} -> {theta.as_dict()}"
+
+
+def _assert_valid(theta: Params) -> None:
+    rebuilt = type(theta)(**theta.as_dict())  # construction validates every field
+    assert rebuilt == theta
+
+
+def check_reproducible(env_id: str, num_cycles: int = 60, **kwargs: Any) -> None:
+    """The same seed gives the same θ trajectory, notifications, states and rewards."""
+    def rollout(seed: int, episodes: int = 5) -> list[Any]:
+        game = _stress_game(env_id, num_cycles, **kwargs)
+        record: list[Any] = []
+        for episode in range(episodes):
+            game.reset(seed=seed if episode == 0 else None)
+            for index, agent in enumerate(game.agent_iter()):
+                observation, reward, terminated, truncated, _ = game.last()
+                record.append((agent, observation, reward, game.ground_truth().theta))
+                if terminated or truncated:
+                    game.step(None)
+                    continue
+                if agent == DECISION:
+                    space = game.action_space(agent)
+                    space.seed(index)
+                    game.step(space.sample())
+                elif agent == NATURE:
+                    game.step(_nature_noise(game, index))
+                else:
+                    game.step(game.policy_action(agent))
+        return record
+
+    first, second, other = rollout(3), rollout(3), rollout(4)
+    assert data_equivalence(first, second), "same seed, different trajectories"
+    assert not data_equivalence(first, other), "different seeds gave identical trajectories"
+
+
+def _nature_noise(game: NSGame, index: int) -> np.ndarray:
+    space = game.action_space(NATURE)
+    noise = np.random.default_rng(index).normal(0.0, 0.1, space.shape)
+    return np.clip(noise, space.low, space.high)
+
+
+def check_turn_order(env_id: str, **kwargs: Any) -> None:
+    """Agents take turns nature → monitor → agent, and all three end together."""
+    game = _stress_game(env_id, 4, **kwargs)
+    game.reset(seed=0)
+    order = []
+    for agent in game.agent_iter():
+        _, _, terminated, truncated, _ = game.last()
+        order.append((agent, terminated or truncated))
+        game.step(None if terminated or truncated else game.action_space(agent).sample())
+    live = [agent for agent, done in order if not done]
+    cycles = len(live) // 3
+    assert live == list(AGENTS) * cycles, f"turn order broken: {live}"
+    finished = [agent for agent, done in order if done]
+    assert finished == list(AGENTS), f"agents did not end together: {finished}"
+    assert not game.agents
+
+
+def check_game_matches_view(env_id: str, num_cycles: int = 60, **kwargs: Any) -> None:
+    """The game driven by its scripted policies and the view give the same trajectory."""
+    for level in NotificationLevel:
+        options = dict(
+            nature=RandomNature(STRESS_SCALE), notification=level.value,
+            max_episode_steps=num_cycles, **kwargs,
+        )
+        game = make(env_id, **options)
+        view = make_gym(env_id, **options)
+        actions = np.random.default_rng(1)
+        game.reset(seed=11)
+        view_obs, _ = view.reset(seed=11)
+        while True:
+            game.step(game.policy_action(NATURE))
+            game.step(game.policy_action(MONITOR))
+            game_obs = game.observe(DECISION)
+            assert data_equivalence(game_obs, view_obs), f"{level}: {game_obs} != {view_obs}"
+            action = _action(view, actions)
+            game.step(action)
+            view_obs, reward, terminated, truncated, _ = view.step(action)
+            assert game.rewards[DECISION] == reward
+            assert game.terminations[DECISION] == terminated
+            assert game.truncations[DECISION] == truncated
+            assert game.ground_truth() == view.ground_truth()
+            if terminated or truncated:
+                break
+
+
+def _action(env: Any, rng: np.random.Generator) -> Any:
+    space = env.action_space
+    if hasattr(space, "n"):
+        return int(rng.integers(space.n))
+    return rng.uniform(space.low, space.high).astype(space.dtype)

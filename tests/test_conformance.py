@@ -1,0 +1,65 @@
+"""Every registered environment passes the conformance suite; broken ones are caught."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import ns_pz
+from ns_pz.envs.frozen_lake import FrozenLakeFamily
+from ns_pz.testing import (
+    check_game_api,
+    check_ns_env,
+    check_reproducible,
+    check_theta_invariants,
+)
+
+
+@pytest.mark.parametrize("env_id", ns_pz.registered_envs())
+def test_registered_env_conforms(env_id):
+    """api_test, seed_test, check_env and the ns_pz invariants, for every registered id."""
+    check_ns_env(env_id)
+
+
+class GlobalRandomLake(FrozenLakeFamily):
+    """Broken on purpose: draws its start state from numpy's global generator."""
+
+    def initial_state(self, rng):
+        return int(np.random.randint(0, 4))
+
+
+class MutatingLake(FrozenLakeFamily):
+    """Broken on purpose: writes into the θ it is handed."""
+
+    def step(self, state, action, theta, rng):
+        object.__setattr__(theta, "slip", (1.0, 0.0, 0.0))
+        return super().step(state, action, theta, rng)
+
+
+class OutOfSpaceLake(FrozenLakeFamily):
+    """Broken on purpose: observes a state index the space does not contain."""
+
+    def observe(self, state):
+        return state + 100
+
+
+def test_global_randomness_is_caught(register_temporary):
+    """A family using the global RNG fails the reproducibility check."""
+    with register_temporary("test/GlobalRandomLake-v0", GlobalRandomLake) as env_id:
+        with pytest.raises(AssertionError, match="same seed, different trajectories"):
+            for _ in range(5):  # the global draw differs from run to run
+                check_reproducible(env_id)
+
+
+def test_mutating_theta_is_caught(register_temporary):
+    """A family that mutates θ fails the invariants check."""
+    with register_temporary("test/MutatingLake-v0", MutatingLake) as env_id:
+        with pytest.raises(AssertionError, match="mutated"):
+            check_theta_invariants(env_id)
+
+
+def test_observation_outside_its_space_is_caught(register_temporary):
+    """A family whose observations leave their space fails the PettingZoo API test."""
+    with register_temporary("test/OutOfSpaceLake-v0", OutOfSpaceLake) as env_id:
+        with pytest.raises(AssertionError):
+            check_game_api(env_id)

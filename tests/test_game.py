@@ -1,0 +1,156 @@
+"""The AEC game: PettingZoo conformance, rewards, turn validation, scripted policies."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pettingzoo.test import api_test
+from pettingzoo.utils.conversions import turn_based_aec_to_parallel
+
+import ns_pz
+from ns_pz import DECISION, MONITOR, NATURE, ResetNeeded
+from ns_pz.nature import DiscreteScheduler, RandomNature, ScriptedNature, StepWiseUpdate
+
+
+def quiet(count: int) -> dict:
+    """A monitor action that reports no change."""
+    return {"env_change": np.zeros(count, np.int8), "delta_change": np.zeros(count, np.float32)}
+
+
+def test_api_test_with_an_adversarial_nature():
+    """PettingZoo's api_test passes with nature moving every parameter every step."""
+    game = ns_pz.make("ns_pz/FrozenLake-v0", nature=RandomNature(0.3), max_episode_steps=30)
+    api_test(game, num_cycles=100)
+
+
+@pytest.mark.parametrize(("mode", "sign"), [("zero_sum", -1.0), ("cooperative", 1.0), ("none", 0.0)])
+def test_rewards_follow_the_nature_reward_mode(mode, sign):
+    """The agent gets r, nature -r (zero-sum), +r (cooperative) or 0, the monitor 0."""
+    game = ns_pz.make("ns_pz/CartPole-v0", nature_reward=mode)
+    game.reset(seed=0)
+    game.step(np.zeros(6))
+    game.step(quiet(6))
+    game.step(1)
+    assert game.rewards == {NATURE: sign * 1.0, MONITOR: 0.0, DECISION: 1.0}
+    assert game.last()[1] == sign * 1.0  # nature's turn again: its accumulated reward
+    with pytest.raises(ValueError, match="nature_reward='adversarial'"):
+        ns_pz.make("ns_pz/CartPole-v0", nature_reward="adversarial")
+
+
+def test_nature_acts_with_a_delta_and_zero_means_no_change():
+    """Nature's action is Δθ in flat order; zero changes nothing."""
+    game = ns_pz.make("ns_pz/CartPole-v0", notification="detailed")
+    game.reset(seed=0)
+    game.step(np.zeros(6))
+    assert game.ground_truth().change_times == ()
+    game.step(quiet(6))
+    game.step(0)
+    delta = np.zeros(6)
+    delta[2] = 0.4
+    game.step(delta)
+    assert game.ground_truth().theta.masspole == pytest.approx(0.5)
+    assert game.ground_truth().change_times == (1,)
+
+
+@pytest.mark.parametrize(
+    "action",
+    [np.array([np.nan, 0, 0]), np.array([0.5, 0.5]), np.array([[0.1, 0.0, -0.1]]), "up", np.array([2.0, 0.0, 0.0])],
+)
+def test_bad_nature_actions_are_refused(action):
+    """NaN, wrong shapes, non-numbers and steps beyond the space raise ValueError."""
+    game = ns_pz.make("ns_pz/FrozenLake-v0")
+    game.reset(seed=0)
+    with pytest.raises(ValueError, match="nature action"):
+        game.step(action)
+    assert game.agent_selection == NATURE
+
+
+@pytest.mark.parametrize(
+    ("action", "match"),
+    [
+        ({"env_change": [2], "delta_change": [0.0]}, "must hold only 0 and 1"),
+        ({"env_change": [1], "delta_change": [-0.5]}, "must be finite and >= 0"),
+        ({"env_change": [1, 0], "delta_change": [0.5, 0.0]}, "needs 1 flags and 1 sizes"),
+        ({"flags": [1]}, "must be a dict with keys"),
+        ({"env_change": [1], "delta_change": [np.nan]}, "must be finite and >= 0"),
+    ],
+)
+def test_bad_monitor_actions_are_refused(action, match):
+    """Malformed notifications raise ValueError naming what is wrong."""
+    game = ns_pz.make("ns_pz/FrozenLake-v0")
+    game.reset(seed=0)
+    game.step(np.zeros(3))
+    with pytest.raises(ValueError, match=match):
+        game.step(action)
+
+
+def test_the_level_masks_what_the_monitor_says():
+    """Whatever the monitor sends, the agent sees only what the level allows."""
+    for level, expected in [("none", (0, 0.0)), ("basic", (1, 0.0)), ("detailed", (1, 0.25))]:
+        game = ns_pz.make("ns_pz/FrozenLake-v0", notification=level)
+        game.reset(seed=0)
+        game.step(np.zeros(3))
+        game.step({"env_change": np.array([1]), "delta_change": np.array([0.25])})
+        obs = game.observe(DECISION)
+        assert (obs["env_change"][0], float(obs["delta_change"][0])) == expected
+
+
+def test_policy_action_reproduces_scripted_values_exactly():
+    """Driving nature by its scripted Δθ lands exactly on the scripted values."""
+    schedule = StepWiseUpdate(DiscreteScheduler({0, 1, 2}), [1.0, 0.3, 250.1])
+    game = ns_pz.make("ns_pz/CartPole-v0", nature=ScriptedNature({"masspole": schedule}))
+    game.reset(seed=0)
+    seen = []
+    for _ in range(3):
+        game.step(game.policy_action(NATURE))
+        seen.append(game.ground_truth().theta.masspole)
+        game.step(game.policy_action(MONITOR))
+        game.step(1)
+    assert seen == [1.0, 0.3, 250.1]
+    with pytest.raises(ValueError, match="has no configured policy"):
+        game.policy_action(DECISION)
+
+
+def test_all_agents_truncate_together_and_leave():
+    """At the time limit all three agents are truncated, then removed by their dead steps."""
+    game = ns_pz.make("ns_pz/CartPole-v0", max_episode_steps=2)
+    game.reset(seed=0)
+    for agent in game.agent_iter():
+        _, _, terminated, truncated, _ = game.last()
+        if terminated or truncated:
+            assert all(game.truncations.values())
+            game.step(None)
+        else:
+            game.step(game.policy_action(agent) if agent != DECISION else game.action_space(agent).sample())
+    assert game.agents == []
+    with pytest.raises(ResetNeeded, match="after the episode ended"):
+        game.step(0)
+
+
+def test_spaces_are_the_same_objects_and_observations_inside():
+    """Each agent's spaces are the same object on every call; first observations are inside."""
+    game = ns_pz.make("ns_pz/FrozenLake-v0")
+    game.reset(seed=0)
+    for agent in game.possible_agents:
+        assert game.observation_space(agent) is game.observation_space(agent)
+        assert game.action_space(agent) is game.action_space(agent)
+        assert game.observation_space(agent).contains(game.observe(agent))
+
+
+def test_observe_before_reset_raises():
+    """Observing a game that was never reset is an error, not a stale value."""
+    with pytest.raises(ResetNeeded, match="observe\\(\\) called before reset"):
+        ns_pz.make("ns_pz/FrozenLake-v0").observe(NATURE)
+
+
+def test_turn_based_parallel_conversion_runs():
+    """PettingZoo's turn-based parallel wrapper works on the game (aec_to_parallel cannot)."""
+    parallel = turn_based_aec_to_parallel(ns_pz.make("ns_pz/FrozenLake-v0", max_episode_steps=5))
+    observations, _ = parallel.reset(seed=0)
+    assert set(observations) == {NATURE, MONITOR, DECISION}
+    steps = 0
+    while parallel.agents and steps < 30:
+        actions = {agent: parallel.action_space(agent).sample() for agent in parallel.agents}
+        parallel.step(actions)
+        steps += 1
+    assert not parallel.agents

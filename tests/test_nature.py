@@ -1,0 +1,207 @@
+"""Schedulers, update functions, scripted nature and the constraints the game enforces."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ns_pz import ParamOutOfRange, UnknownParam
+from ns_pz.envs.cartpole import CartPoleParams
+from ns_pz.envs.frozen_lake import FrozenLakeParams
+from ns_pz.nature import (
+    ContinuousScheduler,
+    DecrementUpdate,
+    DiscreteScheduler,
+    DistributionDecrementUpdate,
+    DistributionIncrementUpdate,
+    DistributionStepWiseUpdate,
+    IncrementUpdate,
+    NatureConstraints,
+    PeriodicScheduler,
+    RandomNature,
+    RandomScheduler,
+    RandomWalk,
+    ScriptedNature,
+    StepWiseUpdate,
+)
+from ns_pz.nature.constraints import admit
+
+RNG = np.random.default_rng(0)
+
+
+def fired(scheduler, steps=12, rng=None):
+    """Steps (0..steps-1) at which ``scheduler`` fires."""
+    rng = rng or np.random.default_rng(0)
+    return [t for t in range(steps) if scheduler(t, rng)]
+
+
+def test_schedulers_fire_at_the_documented_steps():
+    """Continuous, discrete and periodic schedulers fire exactly where documented."""
+    assert fired(ContinuousScheduler(start=1, end=3)) == [1, 2, 3]
+    assert fired(ContinuousScheduler(start=10)) == [10, 11]
+    assert fired(DiscreteScheduler({1, 5})) == [1, 5]
+    assert fired(PeriodicScheduler(period=3, start=2)) == [2, 5, 8, 11]
+    assert fired(PeriodicScheduler(period=2, start=0, end=4)) == [0, 2, 4]
+
+
+def test_random_scheduler_is_driven_by_the_generator_it_is_given():
+    """Same generator seed, same firing pattern; probability 0 and 1 are exact."""
+    scheduler = RandomScheduler(probability=0.5, start=0)
+    first = fired(scheduler, 50, np.random.default_rng(3))
+    assert first == fired(scheduler, 50, np.random.default_rng(3))
+    assert first != fired(scheduler, 50, np.random.default_rng(4))
+    assert fired(RandomScheduler(0.0, start=0)) == []
+    assert fired(RandomScheduler(1.0, start=0)) == list(range(12))
+
+
+@pytest.mark.parametrize(
+    ("build", "error", "match"),
+    [
+        (lambda: ContinuousScheduler(start=-1), ValueError, r"start=-1 must be >= 0"),
+        (lambda: ContinuousScheduler(start=1.5), TypeError, r"start=1.5 must be an int"),
+        (lambda: ContinuousScheduler(start=5, end=2), ValueError, r"end=2 is before start=5"),
+        (lambda: PeriodicScheduler(period=0, start=0), ValueError, r"period=0 must be >= 1"),
+        (lambda: RandomScheduler(probability=1.5, start=0), ValueError, r"probability=1.5"),
+        (lambda: DiscreteScheduler(3), TypeError, r"event_times=3 must be an iterable"),
+        (lambda: DiscreteScheduler({-2}), ValueError, r"event_times element=-2"),
+    ],
+)
+def test_scheduler_arguments_are_checked(build, error, match):
+    """Bad scheduler arguments raise with the argument, the value and the rule."""
+    with pytest.raises(error, match=match):
+        build()
+
+
+def test_scalar_updates():
+    """Increment, decrement, step-wise and random-walk rules compute the documented values."""
+    always = ContinuousScheduler(start=0)
+    assert IncrementUpdate(always, k=0.1).update(1.0, 0, 0, RNG) == 1.1
+    assert DecrementUpdate(always, k=0.25).update(1.0, 0, 0, RNG) == 0.75
+    stepwise = StepWiseUpdate(always, [1.0, 1.5])
+    assert [stepwise.update(0.1, t, n, RNG) for t, n in [(0, 0), (1, 1), (2, 2)]] == [1.0, 1.5, 0.1]
+    walk = RandomWalk(always, mu=0.0, sigma=0.0)
+    assert walk.update(2.0, 0, 0, RNG) == 2.0
+    rngs = np.random.default_rng(9), np.random.default_rng(9)
+    walk = RandomWalk(always, sigma=1.0)
+    assert walk.update(0.0, 0, 0, rngs[0]) == walk.update(0.0, 0, 0, rngs[1]) != 0.0
+
+
+def test_distribution_updates_split_the_rest_equally_and_clip():
+    """Distribution rules move the intended mass by k, clip at [0, 1] and share the rest equally."""
+    always = ContinuousScheduler(start=0)
+    down = DistributionDecrementUpdate(always, k=0.2)
+    assert down.update((1.0, 0.0, 0.0), 0, 0, RNG) == pytest.approx((0.8, 0.1, 0.1))
+    assert down.update((0.1, 0.5, 0.4), 0, 0, RNG) == (0.0, 0.5, 0.5)
+    up = DistributionIncrementUpdate(always, k=0.3)
+    assert up.update((0.9, 0.1, 0.0), 0, 0, RNG) == (1.0, 0.0, 0.0)
+    stepwise = DistributionStepWiseUpdate(always, [(0.4, 0.3, 0.3)])
+    assert stepwise.update((1.0, 0.0, 0.0), 0, 0, RNG) == (0.4, 0.3, 0.3)
+    assert stepwise.update((1.0, 0.0, 0.0), 1, 1, RNG) == (1.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("build", "error", "match"),
+    [
+        (lambda: IncrementUpdate("soon", k=1.0), TypeError, r"scheduler='soon' must be an ns_pz"),
+        (lambda: IncrementUpdate(DiscreteScheduler({1}), k=math.nan), ValueError, r"k=nan"),
+        (lambda: StepWiseUpdate(DiscreteScheduler({1}), []), ValueError, r"empty"),
+        (lambda: RandomWalk(DiscreteScheduler({1}), sigma=-1), ValueError, r"sigma=-1"),
+        (
+            lambda: DistributionStepWiseUpdate(DiscreteScheduler({1}), [(0.5, 0.2, 0.2)]),
+            ValueError,
+            r"update_values\[0\]=\(0.5, 0.2, 0.2\) sums to 0.9",
+        ),
+    ],
+)
+def test_update_arguments_are_checked(build, error, match):
+    """Bad update-function arguments raise with the value and the rule."""
+    with pytest.raises(error, match=match):
+        build()
+
+
+def test_scripted_nature_binds_to_its_parameter_set():
+    """Unknown names and rules of the wrong kind are refused when the env is built."""
+    rule = IncrementUpdate(ContinuousScheduler(start=0), k=0.1)
+    with pytest.raises(UnknownParam, match="'maspole'"):
+        ScriptedNature({"maspole": rule}).bind(CartPoleParams)
+    with pytest.raises(TypeError, match="is a probability vector"):
+        ScriptedNature({"slip": rule}).bind(FrozenLakeParams)
+    vector_rule = DistributionDecrementUpdate(ContinuousScheduler(start=0), k=0.1)
+    with pytest.raises(TypeError, match="is a scalar"):
+        ScriptedNature({"masspole": vector_rule}).bind(CartPoleParams)
+    wrong_length = DistributionStepWiseUpdate(DiscreteScheduler({0}), [(0.5, 0.5)])
+    with pytest.raises(ValueError, match="has 2 elements but parameter 'slip' has 3"):
+        ScriptedNature({"slip": wrong_length}).bind(FrozenLakeParams)
+    with pytest.raises(TypeError, match="must be an ns_pz update function"):
+        ScriptedNature({"masspole": 0.3})
+
+
+def test_scripted_nature_counts_firings_per_episode_in_its_memory():
+    """The n-th firing gets n; a fresh memory starts the list again (one policy, many envs)."""
+    nature = ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({1, 3}), [0.5, 0.7])})
+    theta = CartPoleParams()
+    memory = nature.initial_memory()
+    proposals = [nature.propose(t, theta, math.inf, memory, RNG) for t in range(5)]
+    assert proposals == [None, {"masspole": 0.5}, None, {"masspole": 0.7}, None]
+    assert nature.propose(1, theta, math.inf, nature.initial_memory(), RNG) == {"masspole": 0.5}
+
+
+def test_admit_projects_out_of_bounds_proposals():
+    """A proposal outside the bounds is granted at the nearest allowed value."""
+    theta, _ = admit(CartPoleParams(), {"masspole": -3.0}, NatureConstraints(), math.inf)
+    assert theta.masspole == 1e-3
+    theta, _ = admit(FrozenLakeParams(), {"slip": (0.9, 0.3, 0.0)}, NatureConstraints(), math.inf)
+    assert sum(theta.slip) == pytest.approx(1.0) and min(theta.slip) >= 0
+    unchanged = CartPoleParams()
+    assert admit(unchanged, {"masspole": 0.1}, NatureConstraints(), math.inf)[0] is unchanged
+
+
+def test_admit_enforces_lipschitz_and_budget():
+    """Changes are shortened to the per-step bound, then all of them to the budget left."""
+    bound = NatureConstraints(lipschitz=0.05)
+    theta, sizes = admit(CartPoleParams(), {"masspole": 0.5}, bound, math.inf)
+    assert theta.masspole == pytest.approx(0.15) and sizes == {"masspole": pytest.approx(0.05)}
+    lake, sizes = admit(FrozenLakeParams(slip=(1, 0, 0)), {"slip": (0, 1, 0)}, bound, math.inf)
+    assert lake.slip == pytest.approx((0.95, 0.05, 0.0))
+    budget = NatureConstraints(budget=1.0)
+    theta, sizes = admit(CartPoleParams(), {"masspole": 1.1, "gravity": 10.8}, budget, 1.0)
+    assert sum(sizes.values()) == pytest.approx(1.0)
+    assert theta.masspole == pytest.approx(0.6) and theta.gravity == pytest.approx(10.3)
+    spent, sizes = admit(CartPoleParams(), {"masspole": 0.5}, budget, 0.0)
+    assert spent == CartPoleParams() and sizes == {}
+
+
+def test_admit_refuses_nan_and_unknown_names():
+    """NaN has no nearest allowed value; an unknown name is refused."""
+    with pytest.raises(ParamOutOfRange, match="masspole=nan is NaN"):
+        admit(CartPoleParams(), {"masspole": math.nan}, NatureConstraints(), math.inf)
+    with pytest.raises(UnknownParam):
+        admit(CartPoleParams(), {"wind": 1.0}, NatureConstraints(), math.inf)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"lipschitz": -1.0}, ValueError, r"lipschitz=-1.0 must be >= 0"),
+        ({"budget": math.nan}, ValueError, r"budget=nan must be >= 0"),
+        ({"lipschitz": "x"}, TypeError, r"lipschitz='x' must be a real number"),
+        ({"lipschitz": {"masspole": -2}}, ValueError, r"lipschitz\['masspole'\]=-2"),
+    ],
+)
+def test_constraint_arguments_are_checked(kwargs, error, match):
+    """Bad constraints raise with the value and the rule."""
+    with pytest.raises(error, match=match):
+        NatureConstraints(**kwargs)
+
+
+def test_random_nature_stays_inside_bounds_after_projection():
+    """RandomNature's proposals, once admitted, are always valid parameter sets."""
+    nature = RandomNature(scale=1.0)
+    rng = np.random.default_rng(2)
+    for params in (CartPoleParams(), FrozenLakeParams()):
+        theta = params
+        for t in range(200):
+            theta, _ = admit(theta, nature.propose(t, theta, math.inf, None, rng), NatureConstraints(), math.inf)
+            assert type(theta)(**theta.as_dict()) == theta

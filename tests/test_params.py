@@ -1,0 +1,135 @@
+"""θ as data: validation messages, immutability, derived quantities, projection, sizes."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from ns_pz import ParamOutOfRange, UnknownParam
+from ns_pz.envs.cartpole import CartPoleParams
+from ns_pz.envs.frozen_lake import FrozenLakeParams
+from ns_pz.params import project_to_simplex
+
+
+def test_defaults_are_gymnasium_constants():
+    """CartPole defaults equal Gymnasium's CartPole-v1 constants."""
+    theta = CartPoleParams()
+    assert (theta.gravity, theta.masscart, theta.masspole) == (9.8, 1.0, 0.1)
+    assert (theta.length, theta.force_mag, theta.tau) == (0.5, 10.0, 0.02)
+
+
+def test_derived_quantities_follow_theta():
+    """Total mass and pole mass-length are computed from θ, never stored."""
+    theta = CartPoleParams().replace(masspole=0.3, length=2.0)
+    assert theta.total_mass == pytest.approx(1.3)
+    assert theta.polemass_length == pytest.approx(0.6)
+    assert "total_mass" not in theta.names()
+
+
+def test_theta_is_immutable():
+    """Assigning a field of θ raises; replace returns a new value and leaves the old one."""
+    theta = CartPoleParams()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        theta.masspole = 0.5  # type: ignore[misc]
+    other = theta.replace(masspole=0.5)
+    assert theta.masspole == 0.1 and other.masspole == 0.5
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"masspole": -0.2}, r"CartPoleParams.masspole=-0.2 is outside \[0.001, 1000.0\]"),
+        ({"masspole": float("nan")}, r"masspole=nan is not finite"),
+        ({"gravity": float("inf")}, r"gravity=inf is not finite"),
+        ({"length": "long"}, r"length='long' is not a real number"),
+        ({"tau": 0.0}, r"tau=0.0 is outside \[0.0001, 1.0\]"),
+    ],
+)
+def test_invalid_scalars_are_refused_with_the_value_and_range(changes, match):
+    """Each invalid scalar names the parameter, the value and what is allowed."""
+    with pytest.raises(ParamOutOfRange, match=match):
+        CartPoleParams().replace(**changes)
+
+
+def test_unknown_parameter_suggests_close_names():
+    """An unknown name is a ValueError that lists close matches."""
+    with pytest.raises(UnknownParam, match=r"no parameter 'maspole' \(did you mean 'masspole'"):
+        CartPoleParams().replace(maspole=0.2)
+    with pytest.raises(ValueError, match="known: gravity, masscart"):
+        CartPoleParams.from_mapping({"wind": 1.0})
+
+
+@pytest.mark.parametrize(
+    ("slip", "match"),
+    [
+        ((0.7, 0.1, 0.1), r"sums to 0.8999999999999999, not 1"),
+        ((1.2, -0.1, -0.1), r"has an element outside \[0, 1\]"),
+        ((0.5, 0.5), r"has 2 elements, expected 3"),
+        ((float("nan"), 0.5, 0.5), r"is not finite"),
+        ("abc", r"is not a sequence of 3 probabilities"),
+    ],
+)
+def test_invalid_probability_vectors_are_refused(slip, match):
+    """Off-simplex, negative, wrong-length, NaN and non-sequence slip vectors all raise."""
+    with pytest.raises(ParamOutOfRange, match=match):
+        FrozenLakeParams(slip=slip)
+
+
+def test_vector_within_tolerance_is_accepted_and_stored_as_tuple():
+    """A list summing to 1 within 1e-8 is accepted and canonicalised to a tuple of floats."""
+    theta = FrozenLakeParams(slip=[0.7, 0.15, 0.15 + 5e-9])
+    assert isinstance(theta.slip, tuple) and all(type(p) is float for p in theta.slip)
+
+
+def test_flat_round_trip_and_bounds():
+    """flat()/split_flat() invert each other; flat bounds follow the specs."""
+    theta = FrozenLakeParams(slip=(0.6, 0.3, 0.1))
+    assert FrozenLakeParams.split_flat(theta.flat()) == {"slip": (0.6, 0.3, 0.1)}
+    low, high = CartPoleParams.flat_bounds()
+    assert low[0] == 0.0 and high[2] == 1e3
+
+
+def test_change_sizes_use_total_variation_for_vectors():
+    """Scalar sizes are |Δ|; vector sizes are W1 under the discrete metric (total variation)."""
+    before = FrozenLakeParams(slip=(1.0, 0.0, 0.0))
+    after = FrozenLakeParams(slip=(0.6, 0.2, 0.2))
+    assert after.change_sizes(before) == (pytest.approx(0.4),)
+    assert CartPoleParams(masspole=0.5).change_sizes(CartPoleParams()) == (
+        0.0, 0.0, pytest.approx(0.4), 0.0, 0.0, 0.0,
+    )
+
+
+def test_projection_onto_bounds_and_simplex():
+    """project() clips scalars, projects vectors onto the simplex and refuses NaN."""
+    spec = CartPoleParams.spec("masspole")
+    assert spec.project("C", -5.0) == 1e-3 and spec.project("C", 1e9) == 1e3
+    slip = FrozenLakeParams.spec("slip")
+    projected = slip.project("F", (2.0, 0.0, -1.0))
+    assert projected == (1.0, 0.0, 0.0)
+    with pytest.raises(ParamOutOfRange, match="NaN"):
+        spec.project("C", math.nan)
+
+
+def test_random_projections_always_land_on_the_simplex():
+    """Property: projecting any finite vector yields a probability vector nearest to it."""
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        vector = rng.normal(0, 2, size=rng.integers(2, 6))
+        projected = np.array(project_to_simplex(vector))
+        assert projected.min() >= 0 and abs(projected.sum() - 1) < 1e-12
+        probe = rng.dirichlet(np.ones(len(vector)))
+        assert np.linalg.norm(projected - vector) <= np.linalg.norm(probe - vector) + 1e-12
+
+
+def test_random_valid_theta_never_fails_validation():
+    """Property: θ drawn uniformly within bounds always constructs, and round-trips."""
+    rng = np.random.default_rng(1)
+    for _ in range(200):
+        values = {
+            spec.name: float(rng.uniform(spec.low, spec.high)) for spec in CartPoleParams.specs()
+        }
+        theta = CartPoleParams(**values)
+        assert theta.as_dict() == values

@@ -1,0 +1,66 @@
+"""The registry: gymnasium.make and ns_pz.make, argument routing, errors, import hygiene."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import gymnasium as gym
+import pytest
+
+import ns_pz
+from ns_pz import UnknownEnvironment
+
+
+def test_registered_ids():
+    """The first families are registered under Name-vN ids."""
+    assert {"ns_pz/CartPole-v0", "ns_pz/FrozenLake-v0", "ns_pz/FrozenLake8x8-v0"} <= set(
+        ns_pz.registered_envs()
+    )
+
+
+@pytest.mark.parametrize("env_id", ns_pz.registered_envs())
+def test_every_id_builds_through_both_makes(env_id):
+    """gymnasium.make gives the view, ns_pz.make the game, for every id."""
+    assert isinstance(gym.make(env_id).unwrapped, ns_pz.NSGymEnv)
+    assert isinstance(ns_pz.make(env_id), ns_pz.NSGame)
+
+
+def test_unknown_id_suggests_close_matches():
+    """A typo gets an error naming the closest registered ids."""
+    with pytest.raises(UnknownEnvironment, match="Did you mean 'ns_pz/FrozenLake-v0'"):
+        ns_pz.make("ns_pz/FrozenLak-v0")
+    with pytest.raises(ValueError, match="no environment 'nothing' is registered"):
+        ns_pz.make_gym("nothing")
+
+
+def test_unknown_argument_lists_what_is_allowed():
+    """An argument neither the NS-MDP nor the family takes is a TypeError listing both."""
+    with pytest.raises(TypeError, match=r"takes no argument 'is_slippery'; allowed: \[.*'map_name'"):
+        ns_pz.make("ns_pz/FrozenLake-v0", is_slippery=True)
+
+
+def test_family_arguments_reach_the_family():
+    """Family arguments (the map) and NS arguments (the level) are routed apart."""
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", map_name="8x8", notification="detailed")
+    assert env.family.observation_space.n == 64
+    assert env.notification_level == "detailed"
+    with pytest.raises(ValueError, match="notification='full' is not a notification level"):
+        ns_pz.make_gym("ns_pz/FrozenLake-v0", notification="full")
+
+
+def test_module_prefixed_id_imports_ns_pz_by_itself():
+    """gymnasium.make('ns_pz:ns_pz/...') works in a fresh interpreter that never imported ns_pz."""
+    code = "import gymnasium as gym; e = gym.make('ns_pz:ns_pz/FrozenLake-v0'); print(type(e.unwrapped).__name__)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "NSGymEnv"
+
+
+def test_import_loads_no_torch_and_no_compiler():
+    """import ns_pz stays light: no torch, numba, jax or scipy."""
+    code = (
+        "import sys, ns_pz; heavy = [m for m in ('torch', 'numba', 'jax', 'scipy') if m in sys.modules];"
+        " print(heavy)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

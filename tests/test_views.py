@@ -1,0 +1,204 @@
+"""The Gymnasium view: timing of changes and notifications, levels, planning envs, bad input."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import ns_pz
+from ns_pz import ParamOutOfRange, ResetNeeded, UnknownParam
+from ns_pz.envs.cartpole import CartPoleFamily, CartPoleParams
+from ns_pz.nature import (
+    ContinuousScheduler,
+    DiscreteScheduler,
+    DistributionDecrementUpdate,
+    IncrementUpdate,
+    ScriptedNature,
+    StepWiseUpdate,
+)
+
+MASSPOLE = CartPoleParams.names().index("masspole")
+
+
+def single_change(level: str) -> ns_pz.NSGymEnv:
+    """CartPole whose masspole jumps 0.1 -> 0.5 at step 1 ("after the first decision epoch")."""
+    nature = ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({1}), [0.5])})
+    return ns_pz.make_gym("ns_pz/CartPole-v0", nature=nature, notification=level)
+
+
+def test_change_at_step_1_affects_transition_1_and_is_heard_after_it():
+    """θ_1 drives the second transition; the agent is told in the observation that follows it."""
+    env = single_change("detailed")
+    obs, _ = env.reset(seed=0)
+    assert obs["relative_time"][0] == 0 and not obs["env_change"].any()
+    state0 = env._process.state
+    obs, *_ = env.step(1)  # transition 0 under θ_0
+    assert env._process.state == CartPoleFamily().step(state0, 1, CartPoleParams(), None)[0]
+    assert not obs["env_change"].any() and env.ground_truth().change_times == ()
+    state1 = env._process.state
+    obs, *_ = env.step(0)  # transition 1 under θ_1
+    expected = CartPoleFamily().step(state1, 0, CartPoleParams(masspole=0.5), None)[0]
+    assert env._process.state == expected
+    assert obs["relative_time"][0] == 2
+    assert obs["env_change"].tolist() == [0, 0, 1, 0, 0, 0]
+    assert obs["delta_change"][MASSPOLE] == pytest.approx(0.4)
+    assert env.ground_truth().change_times == (1,)
+    obs, *_ = env.step(0)
+    assert not obs["env_change"].any() and not obs["delta_change"].any()
+
+
+@pytest.mark.parametrize(
+    ("level", "flags", "size"),
+    [("none", [0] * 6, 0.0), ("basic", [0, 0, 1, 0, 0, 0], 0.0), ("detailed", [0, 0, 1, 0, 0, 0], 0.4)],
+)
+def test_levels_fill_only_their_fields_and_never_change_the_space(level, flags, size):
+    """none: nothing; basic: flags; detailed: flags and sizes. The space is the same object shape."""
+    env = single_change(level)
+    env.reset(seed=0)
+    env.step(0)
+    obs, *_ = env.step(0)
+    assert obs["env_change"].tolist() == flags
+    assert obs["delta_change"][MASSPOLE] == pytest.approx(size)
+    assert env.observation_space == single_change("none").observation_space
+    assert obs in env.observation_space
+
+
+@pytest.mark.parametrize(("level", "expected"), [("none", 0.1), ("basic", 0.1), ("detailed", 0.5)])
+def test_planning_env_holds_theta0_or_current_theta(level, expected):
+    """get_planning_env(): θ_0 at none/basic, the current θ at detailed, at the current state."""
+    env = single_change(level)
+    env.reset(seed=0)
+    env.step(0)
+    env.step(0)
+    planning = env.get_planning_env()
+    assert planning.ground_truth().theta.masspole == expected
+    assert planning._process.state == env._process.state
+    assert planning.planning_model().theta.masspole == expected
+    assert env.planning_model().get_state() == env._process.state
+
+
+def test_planning_env_is_stationary_and_independent():
+    """Nature is frozen in the planning env, and stepping it leaves the real env untouched."""
+    nature = ScriptedNature({"masspole": IncrementUpdate(ContinuousScheduler(start=0), k=0.1)})
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", nature=nature, notification="detailed")
+    env.reset(seed=1)
+    env.step(0)
+    before = env._process.state
+    planning = env.get_planning_env()
+    theta = planning.ground_truth().theta
+    for _ in range(5):
+        obs, *_ = planning.step(1)
+        assert not obs["env_change"].any()
+    assert planning.ground_truth().theta == theta
+    assert env._process.state == before
+    assert isinstance(planning, gym.Env)
+
+
+def test_planning_envs_are_reproducible_from_the_seed():
+    """Two runs with one seed hand out planning envs that sample the same futures."""
+    def futures(seed: int) -> list:
+        nature = ScriptedNature({"slip": DistributionDecrementUpdate(ContinuousScheduler(start=0), k=0.1)})
+        env = ns_pz.make_gym("ns_pz/FrozenLake-v0", nature=nature, notification="detailed")
+        env.reset(seed=seed)
+        planning = env.get_planning_env()
+        states, done = [], False
+        while not done:
+            obs, _, terminated, truncated, _ = planning.step(1)
+            states.append(obs["state"])
+            done = terminated or truncated
+        return states
+
+    assert futures(5) == futures(5)
+
+
+def test_bad_calls_raise_before_anything_changes():
+    """Planning, stepping or changing θ without a running episode raise ResetNeeded."""
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0")
+    with pytest.raises(ResetNeeded, match="get_planning_env\\(\\) called before reset"):
+        env.get_planning_env()
+    with pytest.raises(ResetNeeded, match="before reset"):
+        env.planning_model()
+    with pytest.raises(ResetNeeded, match="step\\(\\) called before reset"):
+        env.step(0)
+    env.reset(seed=0, options=None)
+    env.set_params(slip=(1.0, 0.0, 0.0))
+    for _ in range(3):  # DOWN three times from the start, without slipping: the hole at (3, 0)
+        *_, terminated, _, _ = env.step(1)
+    assert terminated
+    with pytest.raises(ResetNeeded, match="after the episode ended"):
+        env.step(0)
+    with pytest.raises(ResetNeeded, match="set_params\\(\\) called after the episode ended"):
+        env.set_params(slip=(0.5, 0.25, 0.25))
+
+
+@pytest.mark.parametrize("action", [4, -1, 1.5, "left", None, np.array([1, 2])])
+def test_actions_outside_the_space_are_refused(action):
+    """An action outside the action space raises ValueError naming it; nothing moves."""
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="is outside the action space Discrete\\(4\\)"):
+        env.step(action)
+    assert env._process.t == 0
+    env.step(np.int64(2))  # numpy integers are fine
+
+
+def test_set_params_validates_strictly():
+    """set_params refuses invalid values and unknown names, leaving θ as it was."""
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    with pytest.raises(ParamOutOfRange, match="masspole=-1.0 is outside"):
+        env.set_params(masspole=-1.0)
+    with pytest.raises(UnknownParam):
+        env.set_params(mass=1.0)
+    assert env.ground_truth().theta == CartPoleParams()
+
+
+def test_info_has_no_ground_truth_unless_asked():
+    """info is {} by default; ground_truth_info=True adds the θ in force."""
+    env = single_change("none")
+    _, info = env.reset(seed=0)
+    assert info == {} and env.step(0)[4] == {}
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", ground_truth_info=True)
+    _, info = env.reset(seed=0)
+    assert info["theta"]["masspole"] == 0.1
+
+
+def test_same_seed_same_everything_and_unseeded_reset_continues():
+    """reset(seed) reproduces the episode; reset() without a seed continues the streams."""
+    def episodes(env: gym.Env) -> list:
+        out = []
+        obs, _ = env.reset(seed=3)
+        for _ in range(3):
+            done = False
+            while not done:
+                obs, reward, terminated, truncated, _ = env.step(1)
+                out.append((obs["state"], reward, obs["delta_change"].tolist()))
+                done = terminated or truncated
+            env.reset()
+        return out
+
+    nature = ScriptedNature({"slip": DistributionDecrementUpdate(ContinuousScheduler(start=0), k=0.05)})
+    make = lambda: ns_pz.make_gym("ns_pz/FrozenLake-v0", nature=nature, notification="detailed")  # noqa: E731
+    first, second = episodes(make()), episodes(make())
+    assert first == second
+    assert len({len(first)}) == 1
+
+
+def test_gymnasium_make_applies_its_time_limit_and_kwargs():
+    """gymnasium.make: registered time limit, overridable; family and NS arguments pass through."""
+    env = gym.make("ns_pz/FrozenLake8x8-v0", notification="basic")
+    assert env.spec.max_episode_steps == 200
+    assert env.unwrapped.family.observation_space.n == 64
+    assert env.unwrapped.notification_level == "basic"
+    env = gym.make("ns_pz/CartPole-v0", max_episode_steps=3)
+    env.reset(seed=0)
+    truncated = [env.step(0 if i % 2 else 1)[3] for i in range(3)]
+    assert truncated == [False, False, True]
+
+
+def test_own_time_limit_truncates():
+    """make_gym truncates by itself at max_episode_steps."""
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", max_episode_steps=2)
+    env.reset(seed=0)
+    assert env.step(0)[3] is False and env.step(1)[3] is True
