@@ -72,7 +72,9 @@ def time_gym(env: gym.Env, actions: list[int], seed: int) -> float:
 def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) -> float:
     """Seconds per AEC cycle (nature, monitor, agent turns), resets and dead steps excluded."""
     theta_size = game.action_space(ns_pz.NATURE).shape[0]
-    nudge = np.zeros(theta_size)  # a tiny Δθ on the first flat element (mass-preserving for a vector)
+    nudge = np.zeros(
+        theta_size
+    )  # a tiny Δθ on the first flat element (mass-preserving for a vector)
     nudge[0] = 1e-9
     if "slip" in game.family.params_cls.names():
         nudge[1:] = -1e-9 / (theta_size - 1)
@@ -139,10 +141,13 @@ def cases(name: str) -> dict[str, Runner]:
 
 def nsgym_cases(name: str) -> dict[str, Runner]:
     """NS-Gym 1.0.12 wrappers on the same schedules."""
+
     def build(scheduler_fn: Callable[[], object]) -> gym.Env:
         if name == "CartPole":
             update = ng_updates.IncrementUpdate(scheduler_fn(), k=1e-4)
-            return ng_wrappers.NSClassicControlWrapper(gym.make("CartPole-v1"), {"masspole": update})
+            return ng_wrappers.NSClassicControlWrapper(
+                gym.make("CartPole-v1"), {"masspole": update}
+            )
         update = ng_updates.DistributionDecrementUpdate(scheduler_fn(), k=1e-4)
         return ng_wrappers.NSFrozenLakeWrapper(
             gym.make("FrozenLake-v1"), {"P": update}, initial_prob_dist=list(SLIP)
@@ -189,20 +194,29 @@ def measure_planning(name: str, repeats: int) -> None:
 
     save = _best_of(save_restore) / repeats
     copy_env = _best_of(planning_env) / (repeats // 100)
-    print(f"  {name} planning model save + restore: {save * 1e6:.3f} us;"
-          f" get_planning_env(): {copy_env * 1e6:.1f} us")
+    print(
+        f"  {name} planning model save + restore: {save * 1e6:.3f} us;"
+        f" get_planning_env(): {copy_env * 1e6:.1f} us"
+    )
     if ng_wrappers is not None:
         if name == "CartPole":
             update = ng_updates.IncrementUpdate(ng_schedulers.ContinuousScheduler(), k=1e-4)
             ng = ng_wrappers.NSClassicControlWrapper(
-                gym.make("CartPole-v1"), {"masspole": update}, change_notification=True,
+                gym.make("CartPole-v1"),
+                {"masspole": update},
+                change_notification=True,
                 delta_change_notification=True,
             )
         else:
-            update = ng_updates.DistributionDecrementUpdate(ng_schedulers.ContinuousScheduler(), k=1e-4)
+            update = ng_updates.DistributionDecrementUpdate(
+                ng_schedulers.ContinuousScheduler(), k=1e-4
+            )
             ng = ng_wrappers.NSFrozenLakeWrapper(
-                gym.make("FrozenLake-v1"), {"P": update}, change_notification=True,
-                delta_change_notification=True, initial_prob_dist=list(SLIP),
+                gym.make("FrozenLake-v1"),
+                {"P": update},
+                change_notification=True,
+                delta_change_notification=True,
+                initial_prob_dist=list(SLIP),
             )
         ng.reset(seed=0)
         count = max(repeats // 1000, 5)
@@ -227,8 +241,10 @@ def main() -> None:
     parser.add_argument("--smoke", action="store_true", help="tiny run that checks it works")
     args = parser.parse_args()
     steps, rounds = (300, 2) if args.smoke else (args.steps, args.rounds)
-    print(f"ns_pz {ns_pz.__version__}, gymnasium {gym.__version__}, "
-          f"NS-Gym {'present' if ng_wrappers is not None else 'not installed (skipped)'}")
+    print(
+        f"ns_pz {ns_pz.__version__}, gymnasium {gym.__version__}, "
+        f"NS-Gym {'present' if ng_wrappers is not None else 'not installed (skipped)'}"
+    )
     for name in ("CartPole", "FrozenLake"):
         measure(name, steps, rounds)
     print("\nPlanning")

@@ -79,8 +79,12 @@ class CartPoleFamily(EnvFamily):
         x, x_dot, angle, angle_dot = rng.uniform(low=-0.05, high=0.05, size=(4,)).tolist()
         return (x, x_dot, angle, angle_dot)
 
-    def step(
-        self, state: State, action: int, theta: CartPoleParams, rng: np.random.Generator  # type: ignore[override]
+    def step(  # type: ignore[override]  # θ is this family's own parameter set
+        self,
+        state: State,
+        action: int,
+        theta: CartPoleParams,
+        rng: np.random.Generator,
     ) -> tuple[State, float, bool]:
         """One integration step; terminal when the pole passes 12° or the cart leaves ±2.4."""
         x, x_dot, angle, angle_dot = state

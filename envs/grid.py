@@ -49,9 +49,7 @@ class SlipGridFamily(EnvFamily):
         num_states = self.nrow * self.ncol
         self.observation_space = spaces.Discrete(num_states)
         self.action_space = spaces.Discrete(len(self.moves))
-        self.start_states = tuple(
-            s for s in range(num_states) if self.cell(s) in start_cells
-        )
+        self.start_states = tuple(s for s in range(num_states) if self.cell(s) in start_cells)
         if not self.start_states:
             raise ValueError(f"desc={list(desc)!r} has no start cell ({start_cells!r})")
         self._start_probs = (1.0 / len(self.start_states),) * len(self.start_states)
@@ -97,7 +95,11 @@ class SlipGridFamily(EnvFamily):
         return self.start_states[_pick(self._start_probs, rng.random())]
 
     def step(
-        self, state: int, action: int, theta: Params, rng: np.random.Generator  # type: ignore[override]
+        self,
+        state: int,
+        action: int,
+        theta: Params,
+        rng: np.random.Generator,  # type: ignore[override]
     ) -> Outcome:
         """Sample one slip outcome with θ's probabilities (one uniform draw)."""
         probs = getattr(theta, self._slip_param[state])
@@ -119,9 +121,7 @@ class SlipGridFamily(EnvFamily):
         vectors = np.array([getattr(theta, name) for name in names], dtype=np.float64)
         index = np.array([names.index(name) for name in self._slip_param])
         num_states, num_actions, num_outcomes = self._structure[0].shape
-        probs = np.broadcast_to(
-            vectors[index][:, None, :], (num_states, num_actions, num_outcomes)
-        )
+        probs = np.broadcast_to(vectors[index][:, None, :], (num_states, num_actions, num_outcomes))
         next_states, rewards, terminals = self._structure
         return TabularOutcomes(probs, next_states, rewards, terminals)
 

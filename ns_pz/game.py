@@ -96,18 +96,19 @@ class NSGame(AECEnv):
         self._build = ObservationBuilder(family)
         params_cls = family.params_cls
         self.possible_agents = list(AGENTS)
-        self.agents = []
+        self.agents: list[str] = []
         self.observation_spaces = {
             NATURE: nature_observation_space(params_cls),
             MONITOR: monitor_observation_space(family),
             DECISION: agent_observation_space(family),
         }
-        self.action_spaces = {
-            NATURE: nature_action_space(params_cls),
+        self._nature_space = nature_action_space(params_cls)
+        self.action_spaces: dict[str, spaces.Space[Any]] = {
+            NATURE: self._nature_space,
             MONITOR: monitor_action_space(params_cls),
             DECISION: family.action_space,
         }
-        low, high = self.action_spaces[NATURE].low, self.action_spaces[NATURE].high
+        low, high = self._nature_space.low, self._nature_space.high
         self._delta_bounds = tuple(zip(low.tolist(), high.tolist(), strict=True))
         self._uniform_bounds = self._delta_bounds[0] if len(set(self._delta_bounds)) == 1 else None
         self._flat_layout: list[tuple[str, bool, int, int]] = []
@@ -138,7 +139,7 @@ class NSGame(AECEnv):
         self._cumulative_rewards = dict.fromkeys(AGENTS, 0.0)
         self.terminations = dict.fromkeys(AGENTS, False)
         self.truncations = dict.fromkeys(AGENTS, False)
-        self.infos = {agent: {} for agent in AGENTS}
+        self.infos: dict[str, dict[str, Any]] = {agent: {} for agent in AGENTS}
         self.agent_selection = NATURE
         self._notification = (process.no_change, process.no_change)
         self._rewarded = False
@@ -152,7 +153,10 @@ class NSGame(AECEnv):
             return self._build.nature(process.t, process.theta, process.budget_left)
         if agent == MONITOR:
             return self._build.monitor(
-                process.last_state, process.last_action, process.last_reward, process.state,
+                process.last_state,
+                process.last_action,
+                process.last_reward,
+                process.state,
                 process.t,
             )
         if agent == DECISION:
@@ -235,7 +239,9 @@ class NSGame(AECEnv):
             low, high = self._uniform_bounds
             inside = total == total and low <= min(delta) and max(delta) <= high
         else:
-            inside = all(lo <= v <= hi for v, (lo, hi) in zip(delta, self._delta_bounds))
+            inside = all(
+                lo <= v <= hi for v, (lo, hi) in zip(delta, self._delta_bounds, strict=True)
+            )
         if not inside:
             raise ValueError(
                 f"nature action={action!r} is outside the action space {self.action_spaces[NATURE]}"
@@ -268,7 +274,7 @@ class NSGame(AECEnv):
         process.check_running("policy_action()")
         if agent == NATURE:
             proposal = process.scripted_proposal()
-            delta = delta_of(process.theta, proposal or {}, self.action_spaces[NATURE])
+            delta = delta_of(process.theta, proposal or {}, self._nature_space)
             self._scripted = (delta, delta.tolist(), proposal)
             return delta
         if agent == MONITOR:
@@ -288,6 +294,11 @@ class NSGame(AECEnv):
     def planning_model(self) -> Any:
         """A stationary planning model for the decision agent (θ_0, or θ_t at ``detailed``)."""
         return self._process.planning_model()
+
+    @property
+    def nature_action_space(self) -> spaces.Box:
+        """Nature's action space, typed as the ``Box`` of Δθ it is."""
+        return self._nature_space
 
     @property
     def family(self) -> EnvFamily:
@@ -310,7 +321,7 @@ def delta_of(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -> n
     start = 0
     for spec in theta.specs():
         if spec.name in proposal:
-            target[start:start + spec.size] = proposal[spec.name]
+            target[start : start + spec.size] = proposal[spec.name]
         start += spec.size
     return np.clip(target - current, space.low, space.high)
 

@@ -28,7 +28,7 @@ import math
 import operator
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Self
+from typing import Any, ClassVar, Self, cast
 
 import numpy as np
 
@@ -198,8 +198,15 @@ def scalar(
     doc: str = "",
 ) -> Any:
     """Declare a scalar parameter field of a :class:`Params` dataclass."""
-    meta = {"kind": SCALAR, "low": float(low), "high": float(high), "low_open": low_open,
-            "high_open": high_open, "unit": unit, "doc": doc}
+    meta = {
+        "kind": SCALAR,
+        "low": float(low),
+        "high": float(high),
+        "low_open": low_open,
+        "high_open": high_open,
+        "unit": unit,
+        "doc": doc,
+    }
     return field(default=float(default), metadata={_SPEC_KEY: meta})
 
 
@@ -332,7 +339,7 @@ class Params:
         values: dict[str, Value] = {}
         start = 0
         for spec in cls.specs():
-            chunk = [float(x) for x in flat[start:start + spec.size]]
+            chunk = [float(x) for x in flat[start : start + spec.size]]
             values[spec.name] = tuple(chunk) if spec.kind == SIMPLEX else chunk[0]
             start += spec.size
         return values
@@ -376,7 +383,7 @@ def _spec_of(cls: type, f: dataclasses.Field[Any]) -> ParamSpec:
         raise TypeError(
             f"{cls.__name__}.{f.name} must be declared with ns_pz.params.scalar() or simplex()"
         )
-    return ParamSpec(name=f.name, default=f.default, **meta)
+    return ParamSpec(name=f.name, default=cast(Value, f.default), **meta)
 
 
 def _unknown_message(cls: type[Params], name: str) -> str:

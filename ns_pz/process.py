@@ -22,7 +22,7 @@ import copy
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -143,7 +143,7 @@ class NSProcess:
         """Start an episode: θ back to θ_0, a start state drawn, the clock at 0."""
         if self.env_rng is None:
             self.seed(None)
-        self.state = self.family.initial_state(self.env_rng)
+        self.state = self.family.initial_state(cast(np.random.Generator, self.env_rng))
         self.theta = self.theta0
         self._step_start_theta = self.theta0
         self.t = 0
@@ -176,7 +176,11 @@ class NSProcess:
     def scripted_proposal(self) -> Mapping[str, Any] | None:
         """What the configured nature policy proposes at this step (advances its memory)."""
         return self.nature.propose(
-            self.t, self.theta, self.budget_left, self.nature_memory, self.nature_rng  # type: ignore[arg-type]
+            self.t,
+            self.theta,
+            self.budget_left,
+            self.nature_memory,
+            self.nature_rng,  # type: ignore[arg-type]
         )
 
     def nature_turn(self, proposal: Mapping[str, Any] | None) -> None:
@@ -229,7 +233,10 @@ class NSProcess:
                 return self.no_change, self.no_change
             truth = self.last_sizes()
         flags, sizes = self.monitor.notify(
-            observation, truth, self.monitor_memory, self.monitor_rng  # type: ignore[arg-type]
+            observation,
+            truth,
+            self.monitor_memory,
+            self.monitor_rng,  # type: ignore[arg-type]
         )
         return mask_notification(level, flags, sizes, self.no_change)
 
@@ -248,7 +255,10 @@ class NSProcess:
         """
         self.last_state = self.state
         self.state, reward, terminated = self.family.step(
-            self.state, action, self.theta, self.env_rng  # type: ignore[arg-type]
+            self.state,
+            action,
+            self.theta,
+            self.env_rng,  # type: ignore[arg-type]
         )
         self.last_action = action
         self.last_reward = reward

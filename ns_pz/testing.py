@@ -94,7 +94,7 @@ def check_theta_invariants(env_id: str, num_cycles: int = 60, **kwargs: Any) -> 
     )
     game.reset(seed=7)
     rng = np.random.default_rng(7)
-    space = game.action_space(NATURE)
+    space = game.nature_action_space
     seen: list[tuple[Params, dict[str, Any]]] = []
     previous = game.ground_truth().theta
     for agent in game.agent_iter():
@@ -103,8 +103,10 @@ def check_theta_invariants(env_id: str, num_cycles: int = 60, **kwargs: Any) -> 
             game.step(None)
             continue
         if agent == NATURE:
-            delta = rng.uniform(space.low, space.high) if np.isfinite(space.low).all() else (
-                rng.normal(0.0, 10.0, space.shape)
+            delta = (
+                rng.uniform(space.low, space.high)
+                if np.isfinite(space.low).all()
+                else (rng.normal(0.0, 10.0, space.shape))
             )
             game.step(np.clip(delta, space.low, space.high))
             truth = game.ground_truth()
@@ -129,6 +131,7 @@ def _assert_valid(theta: Params) -> None:
 
 def check_reproducible(env_id: str, num_cycles: int = 60, **kwargs: Any) -> None:
     """The same seed gives the same θ trajectory, notifications, states and rewards."""
+
     def rollout(seed: int, episodes: int = 5) -> list[Any]:
         game = _stress_game(env_id, num_cycles, **kwargs)
         record: list[Any] = []
@@ -156,7 +159,7 @@ def check_reproducible(env_id: str, num_cycles: int = 60, **kwargs: Any) -> None
 
 
 def _nature_noise(game: NSGame, index: int) -> np.ndarray:
-    space = game.action_space(NATURE)
+    space = game.nature_action_space
     noise = np.random.default_rng(index).normal(0.0, 0.1, space.shape)
     return np.clip(noise, space.low, space.high)
 
@@ -182,8 +185,10 @@ def check_game_matches_view(env_id: str, num_cycles: int = 60, **kwargs: Any) ->
     """The game driven by its scripted policies and the view give the same trajectory."""
     for level in NotificationLevel:
         options = dict(
-            nature=RandomNature(STRESS_SCALE), notification=level.value,
-            max_episode_steps=num_cycles, **kwargs,
+            nature=RandomNature(STRESS_SCALE),
+            notification=level.value,
+            max_episode_steps=num_cycles,
+            **kwargs,
         )
         game = make(env_id, **options)
         view = make_gym(env_id, **options)

@@ -93,7 +93,10 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             process.check_running("step()")
         action = process.family.check_action(action)
         proposal = process.nature.propose(
-            process.t, process.theta, process.budget_left, process.nature_memory,
+            process.t,
+            process.theta,
+            process.budget_left,
+            process.nature_memory,
             process.nature_rng,  # type: ignore[arg-type]
         )
         if proposal:

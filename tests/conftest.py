@@ -7,7 +7,6 @@ from collections.abc import Iterator
 
 import gymnasium
 import pytest
-
 from ns_pz.envs import registry
 
 

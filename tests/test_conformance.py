@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from ns_pz.envs.frozen_lake import FrozenLakeFamily
 
 import ns_pz
-from ns_pz.envs.frozen_lake import FrozenLakeFamily
 from ns_pz.testing import (
     check_game_api,
     check_ns_env,
@@ -25,6 +25,7 @@ class GlobalRandomLake(FrozenLakeFamily):
     """Broken on purpose: draws its start state from numpy's global generator."""
 
     def initial_state(self, rng):
+        """A start drawn from the global generator."""
         return int(np.random.randint(0, 4))
 
 
@@ -32,6 +33,7 @@ class MutatingLake(FrozenLakeFamily):
     """Broken on purpose: writes into the θ it is handed."""
 
     def step(self, state, action, theta, rng):
+        """Overwrite θ's slip vector, then step."""
         object.__setattr__(theta, "slip", (1.0, 0.0, 0.0))
         return super().step(state, action, theta, rng)
 
@@ -40,6 +42,7 @@ class OutOfSpaceLake(FrozenLakeFamily):
     """Broken on purpose: observes a state index the space does not contain."""
 
     def observe(self, state):
+        """An index past the last state."""
         return state + 100
 
 

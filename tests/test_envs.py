@@ -5,10 +5,10 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
-
-import ns_pz
 from ns_pz.envs.cartpole import CartPoleFamily, CartPoleParams
 from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
+
+import ns_pz
 from ns_pz.nature import DiscreteScheduler, ScriptedNature, StepWiseUpdate
 
 ACTIONS = np.random.default_rng(5).integers(0, 2, 300).tolist()
@@ -89,8 +89,11 @@ def test_frozen_lake_outcomes_match_gymnasium_slippery_table():
         for a in range(4):
             ours: dict = {}
             for k in range(3):
-                key = (int(table.next_states[s, a, k]), float(table.rewards[s, a, k]),
-                       bool(table.terminals[s, a, k]))
+                key = (
+                    int(table.next_states[s, a, k]),
+                    float(table.rewards[s, a, k]),
+                    bool(table.terminals[s, a, k]),
+                )
                 ours[key] = ours.get(key, 0.0) + table.probs[s, a, k]
             theirs: dict = {}
             for prob, nxt, reward, done in reference[s][a]:

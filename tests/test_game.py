@@ -23,7 +23,9 @@ def test_api_test_with_an_adversarial_nature():
     api_test(game, num_cycles=100)
 
 
-@pytest.mark.parametrize(("mode", "sign"), [("zero_sum", -1.0), ("cooperative", 1.0), ("none", 0.0)])
+@pytest.mark.parametrize(
+    ("mode", "sign"), [("zero_sum", -1.0), ("cooperative", 1.0), ("none", 0.0)]
+)
 def test_rewards_follow_the_nature_reward_mode(mode, sign):
     """The agent gets r, nature -r (zero-sum), +r (cooperative) or 0, the monitor 0."""
     game = ns_pz.make("ns_pz/CartPole-v0", nature_reward=mode)
@@ -54,7 +56,13 @@ def test_nature_acts_with_a_delta_and_zero_means_no_change():
 
 @pytest.mark.parametrize(
     "action",
-    [np.array([np.nan, 0, 0]), np.array([0.5, 0.5]), np.array([[0.1, 0.0, -0.1]]), "up", np.array([2.0, 0.0, 0.0])],
+    [
+        np.array([np.nan, 0, 0]),
+        np.array([0.5, 0.5]),
+        np.array([[0.1, 0.0, -0.1]]),
+        "up",
+        np.array([2.0, 0.0, 0.0]),
+    ],
 )
 def test_bad_nature_actions_are_refused(action):
     """NaN, wrong shapes, non-numbers and steps beyond the space raise ValueError."""
@@ -121,7 +129,11 @@ def test_all_agents_truncate_together_and_leave():
             assert all(game.truncations.values())
             game.step(None)
         else:
-            game.step(game.policy_action(agent) if agent != DECISION else game.action_space(agent).sample())
+            game.step(
+                game.policy_action(agent)
+                if agent != DECISION
+                else game.action_space(agent).sample()
+            )
     assert game.agents == []
     with pytest.raises(ResetNeeded, match="after the episode ended"):
         game.step(0)

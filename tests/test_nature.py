@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 import pytest
-
-from ns_pz import ParamOutOfRange, UnknownParam
 from ns_pz.envs.cartpole import CartPoleParams
 from ns_pz.envs.frozen_lake import FrozenLakeParams
+
+from ns_pz import ParamOutOfRange, UnknownParam
 from ns_pz.nature import (
     ContinuousScheduler,
     DecrementUpdate,
@@ -203,5 +203,7 @@ def test_random_nature_stays_inside_bounds_after_projection():
     for params in (CartPoleParams(), FrozenLakeParams()):
         theta = params
         for t in range(200):
-            theta, _ = admit(theta, nature.propose(t, theta, math.inf, None, rng), NatureConstraints(), math.inf)
+            theta, _ = admit(
+                theta, nature.propose(t, theta, math.inf, None, rng), NatureConstraints(), math.inf
+            )
             assert type(theta)(**theta.as_dict()) == theta

@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 import pytest
-
-from ns_pz import ParamOutOfRange, UnknownParam
 from ns_pz.envs.cartpole import CartPoleParams
 from ns_pz.envs.frozen_lake import FrozenLakeParams
+
+from ns_pz import ParamOutOfRange, UnknownParam
 from ns_pz.params import project_to_simplex
 
 
@@ -98,7 +98,12 @@ def test_change_sizes_use_total_variation_for_vectors():
     after = FrozenLakeParams(slip=(0.6, 0.2, 0.2))
     assert after.change_sizes(before) == (pytest.approx(0.4),)
     assert CartPoleParams(masspole=0.5).change_sizes(CartPoleParams()) == (
-        0.0, 0.0, pytest.approx(0.4), 0.0, 0.0, 0.0,
+        0.0,
+        0.0,
+        pytest.approx(0.4),
+        0.0,
+        0.0,
+        0.0,
     )
 
 

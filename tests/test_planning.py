@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
 
 import ns_pz
-from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
 from ns_pz.planning import TabularModel
 
 

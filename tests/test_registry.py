@@ -36,7 +36,9 @@ def test_unknown_id_suggests_close_matches():
 
 def test_unknown_argument_lists_what_is_allowed():
     """An argument neither the NS-MDP nor the family takes is a TypeError listing both."""
-    with pytest.raises(TypeError, match=r"takes no argument 'is_slippery'; allowed: \[.*'map_name'"):
+    with pytest.raises(
+        TypeError, match=r"takes no argument 'is_slippery'; allowed: \[.*'map_name'"
+    ):
         ns_pz.make("ns_pz/FrozenLake-v0", is_slippery=True)
 
 
@@ -51,16 +53,19 @@ def test_family_arguments_reach_the_family():
 
 def test_module_prefixed_id_imports_ns_pz_by_itself():
     """gymnasium.make('ns_pz:ns_pz/...') works in a fresh interpreter that never imported ns_pz."""
-    code = "import gymnasium as gym; e = gym.make('ns_pz:ns_pz/FrozenLake-v0'); print(type(e.unwrapped).__name__)"
+    code = (
+        "import gymnasium as gym; e = gym.make('ns_pz:ns_pz/FrozenLake-v0');"
+        " print(type(e.unwrapped).__name__)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "NSGymEnv"
 
 
 def test_import_loads_no_torch_and_no_compiler():
-    """import ns_pz stays light: no torch, numba, jax or scipy."""
+    """Import ns_pz stays light: no torch, numba, jax or scipy."""
     code = (
-        "import sys, ns_pz; heavy = [m for m in ('torch', 'numba', 'jax', 'scipy') if m in sys.modules];"
-        " print(heavy)"
+        "import sys, ns_pz; heavy = ('torch', 'numba', 'jax', 'scipy');"
+        " print([m for m in heavy if m in sys.modules])"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -5,10 +5,10 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from ns_pz.envs.cartpole import CartPoleFamily, CartPoleParams
 
 import ns_pz
 from ns_pz import ParamOutOfRange, ResetNeeded, UnknownParam
-from ns_pz.envs.cartpole import CartPoleFamily, CartPoleParams
 from ns_pz.nature import (
     ContinuousScheduler,
     DiscreteScheduler,
@@ -50,10 +50,14 @@ def test_change_at_step_1_affects_transition_1_and_is_heard_after_it():
 
 @pytest.mark.parametrize(
     ("level", "flags", "size"),
-    [("none", [0] * 6, 0.0), ("basic", [0, 0, 1, 0, 0, 0], 0.0), ("detailed", [0, 0, 1, 0, 0, 0], 0.4)],
+    [
+        ("none", [0] * 6, 0.0),
+        ("basic", [0, 0, 1, 0, 0, 0], 0.0),
+        ("detailed", [0, 0, 1, 0, 0, 0], 0.4),
+    ],
 )
 def test_levels_fill_only_their_fields_and_never_change_the_space(level, flags, size):
-    """none: nothing; basic: flags; detailed: flags and sizes. The space is the same object shape."""
+    """none: nothing; basic: flags; detailed: flags and sizes. The space stays the same."""
     env = single_change(level)
     env.reset(seed=0)
     env.step(0)
@@ -97,8 +101,11 @@ def test_planning_env_is_stationary_and_independent():
 
 def test_planning_envs_are_reproducible_from_the_seed():
     """Two runs with one seed hand out planning envs that sample the same futures."""
+
     def futures(seed: int) -> list:
-        nature = ScriptedNature({"slip": DistributionDecrementUpdate(ContinuousScheduler(start=0), k=0.1)})
+        nature = ScriptedNature(
+            {"slip": DistributionDecrementUpdate(ContinuousScheduler(start=0), k=0.1)}
+        )
         env = ns_pz.make_gym("ns_pz/FrozenLake-v0", nature=nature, notification="detailed")
         env.reset(seed=seed)
         planning = env.get_planning_env()
@@ -155,7 +162,7 @@ def test_set_params_validates_strictly():
 
 
 def test_info_has_no_ground_truth_unless_asked():
-    """info is {} by default; ground_truth_info=True adds the θ in force."""
+    """Info is {} by default; ground_truth_info=True adds the θ in force."""
     env = single_change("none")
     _, info = env.reset(seed=0)
     assert info == {} and env.step(0)[4] == {}
@@ -166,6 +173,7 @@ def test_info_has_no_ground_truth_unless_asked():
 
 def test_same_seed_same_everything_and_unseeded_reset_continues():
     """reset(seed) reproduces the episode; reset() without a seed continues the streams."""
+
     def episodes(env: gym.Env) -> list:
         out = []
         obs, _ = env.reset(seed=3)
@@ -178,7 +186,9 @@ def test_same_seed_same_everything_and_unseeded_reset_continues():
             env.reset()
         return out
 
-    nature = ScriptedNature({"slip": DistributionDecrementUpdate(ContinuousScheduler(start=0), k=0.05)})
+    nature = ScriptedNature(
+        {"slip": DistributionDecrementUpdate(ContinuousScheduler(start=0), k=0.05)}
+    )
     make = lambda: ns_pz.make_gym("ns_pz/FrozenLake-v0", nature=nature, notification="detailed")  # noqa: E731
     first, second = episodes(make()), episodes(make())
     assert first == second

@@ -1,0 +1,58 @@
+"""Run agents on environments and summarise their returns."""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from ns_pz.agents.base import Agent
+
+from ns_pz.views import NSGymEnv
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One evaluation episode."""
+
+    seed: int
+    episode_return: float
+    length: int
+    change_times: tuple[int, ...]
+
+
+def run_episode(env: NSGymEnv, agent: Agent, seed: int) -> Episode:
+    """Play one episode; the environment and the agent are both seeded from ``seed``.
+
+    The agent gets a planning model every step if it asks for one (:attr:`Agent.needs_model`).
+    """
+    observation, _ = env.reset(seed=seed)
+    agent.reset(np.random.default_rng([seed, 0xA6E]))  # a stream apart from the env's
+    total, length, done = 0.0, 0, False
+    while not done:
+        model = env.planning_model() if agent.needs_model else None
+        action = agent.act(observation, model)
+        next_observation, reward, terminated, truncated, _ = env.step(action)
+        agent.observe(observation, action, float(reward), next_observation, terminated)
+        observation = next_observation
+        total += float(reward)
+        length += 1
+        done = terminated or truncated
+    return Episode(seed, total, length, env.ground_truth().change_times)
+
+
+def evaluate(
+    make_env: Callable[[], NSGymEnv], agent: Agent, seeds: range | list[int]
+) -> list[Episode]:
+    """One episode per seed, each in a fresh environment."""
+    return [run_episode(make_env(), agent, seed) for seed in seeds]
+
+
+def mean_and_standard_error(values: list[float]) -> tuple[float, float]:
+    """Mean and standard error (ddof=1; 0 for a single value)."""
+    mean = statistics.fmean(values)
+    if len(values) < 2:
+        return mean, 0.0
+    return mean, statistics.stdev(values) / math.sqrt(len(values))

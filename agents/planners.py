@@ -1,0 +1,121 @@
+"""Planning agents over the handed model: snapshot value iteration and random shooting.
+
+Both plan in the stationary snapshot the environment hands over, so what they know of a change
+is exactly what the notification level allows: at ``none`` and ``basic`` they plan with θ_0
+(a perfect but stale planner), at ``detailed`` with the current θ (snapshot replanning).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from ns_pz.agents.base import Agent
+
+from ns_pz.params import Params
+from ns_pz.planning import TabularOutcomes
+
+
+def value_iteration(
+    outcomes: TabularOutcomes, gamma: float, tolerance: float = 1e-9, max_sweeps: int = 10_000
+) -> tuple[np.ndarray, np.ndarray]:
+    """Discounted value iteration on an outcome table.
+
+    Returns:
+        ``(values, q_values)``: ``[num_states]`` and ``[num_states, num_actions]``. A terminal
+        outcome contributes its reward and nothing after it.
+    """
+    continuation = gamma * (~outcomes.terminals)
+    values = np.zeros(outcomes.probs.shape[0])
+    for _ in range(max_sweeps):
+        q_values = (
+            outcomes.probs * (outcomes.rewards + continuation * values[outcomes.next_states])
+        ).sum(axis=2)
+        new_values = q_values.max(axis=1)
+        if np.max(np.abs(new_values - values)) < tolerance:
+            return new_values, q_values
+        values = new_values
+    return values, q_values
+
+
+class SnapshotValueIteration(Agent):
+    """Acts greedily on the value-iteration solution of the handed tabular model.
+
+    Solutions are cached per θ (θ values are hashable), so replanning after a change costs one
+    solve and acting otherwise costs a lookup.
+    """
+
+    def __init__(self, gamma: float = 0.99) -> None:
+        if not 0.0 <= gamma < 1.0:
+            raise ValueError(f"gamma={gamma!r} must lie in [0, 1)")
+        self.gamma = gamma
+        self._policies: dict[Params, np.ndarray] = {}
+
+    @property
+    def needs_model(self) -> bool:
+        """It plans on every step."""
+        return True
+
+    def act(self, observation: dict[str, Any], model: Any | None = None) -> int:
+        """The greedy action of the snapshot's optimal policy (ties: lowest index)."""
+        if model is None or not hasattr(model, "outcomes"):
+            raise ValueError(
+                "SnapshotValueIteration needs a tabular planning model (model.outcomes)"
+            )
+        policy = self._policies.get(model.theta)
+        if policy is None:
+            _, q_values = value_iteration(model.outcomes, self.gamma)
+            policy = q_values.argmax(axis=1)
+            self._policies[model.theta] = policy
+        return int(policy[model.get_state()])
+
+    def __repr__(self) -> str:
+        return f"SnapshotValueIteration(gamma={self.gamma})"
+
+
+class RandomShooting(Agent):
+    """Tries each action followed by random rollouts in the model; picks the best mean return.
+
+    Args:
+        num_rollouts: Rollouts per first action.
+        depth: Steps per rollout, the first action included.
+        gamma: Discount of rewards within a rollout.
+    """
+
+    def __init__(self, num_rollouts: int = 8, depth: int = 30, gamma: float = 0.99) -> None:
+        if num_rollouts < 1 or depth < 1:
+            raise ValueError(f"num_rollouts={num_rollouts!r} and depth={depth!r} must be >= 1")
+        self.num_rollouts, self.depth, self.gamma = num_rollouts, depth, gamma
+
+    @property
+    def needs_model(self) -> bool:
+        """It plans on every step."""
+        return True
+
+    def act(self, observation: dict[str, Any], model: Any | None = None) -> int:
+        """The first action with the highest mean discounted rollout return."""
+        if model is None:
+            raise ValueError("RandomShooting needs a planning model")
+        num_actions = int(model.action_space.n)
+        root = model.get_state()
+        scores = np.zeros(num_actions)
+        for action in range(num_actions):
+            total = 0.0
+            for _ in range(self.num_rollouts):
+                state, reward, done = model.transition(root, action)
+                ret, discount = reward, self.gamma
+                for _ in range(self.depth - 1):
+                    if done:
+                        break
+                    state, reward, done = model.transition(
+                        state, int(self.rng.integers(num_actions))
+                    )
+                    ret += discount * reward
+                    discount *= self.gamma
+                total += ret
+            scores[action] = total / self.num_rollouts
+        best = np.flatnonzero(scores == scores.max())
+        return int(best[self.rng.integers(len(best))])
+
+    def __repr__(self) -> str:
+        return f"RandomShooting(num_rollouts={self.num_rollouts}, depth={self.depth})"
