@@ -12,6 +12,13 @@ import ns_pz
 from ns_pz import UnknownEnvironment
 
 
+def run_python(code: str, cwd) -> subprocess.CompletedProcess:
+    """Run code in a fresh interpreter, outside the source tree (so the installed ns_pz loads)."""
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=cwd
+    )
+
+
 def test_registered_ids():
     """The first families are registered under Name-vN ids."""
     assert {"ns_pz/CartPole-v0", "ns_pz/FrozenLake-v0", "ns_pz/FrozenLake8x8-v0"} <= set(
@@ -51,21 +58,21 @@ def test_family_arguments_reach_the_family():
         ns_pz.make_gym("ns_pz/FrozenLake-v0", notification="full")
 
 
-def test_module_prefixed_id_imports_ns_pz_by_itself():
+def test_module_prefixed_id_imports_ns_pz_by_itself(tmp_path):
     """gymnasium.make('ns_pz:ns_pz/...') works in a fresh interpreter that never imported ns_pz."""
     code = (
         "import gymnasium as gym; e = gym.make('ns_pz:ns_pz/FrozenLake-v0');"
         " print(type(e.unwrapped).__name__)"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = run_python(code, tmp_path)
     assert out.stdout.strip() == "NSGymEnv"
 
 
-def test_import_loads_no_torch_and_no_compiler():
+def test_import_loads_no_torch_and_no_compiler(tmp_path):
     """Import ns_pz stays light: no torch, numba, jax or scipy."""
     code = (
         "import sys, ns_pz; heavy = ('torch', 'numba', 'jax', 'scipy');"
         " print([m for m in heavy if m in sys.modules])"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = run_python(code, tmp_path)
     assert out.stdout.strip() == "[]"
