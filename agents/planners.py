@@ -7,6 +7,7 @@ is exactly what the notification level allows: at ``none`` and ``basic`` they pl
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
@@ -41,15 +42,18 @@ def value_iteration(
 class SnapshotValueIteration(Agent):
     """Acts greedily on the value-iteration solution of the handed tabular model.
 
-    Solutions are cached per θ (θ values are hashable), so replanning after a change costs one
-    solve and acting otherwise costs a lookup.
+    Solutions are cached per (family, θ), the most recent ``cache_size`` of them, so replanning
+    after a change costs one solve and acting otherwise costs a lookup.
     """
 
-    def __init__(self, gamma: float = 0.99) -> None:
+    def __init__(self, gamma: float = 0.99, cache_size: int = 64) -> None:
         if not 0.0 <= gamma < 1.0:
             raise ValueError(f"gamma={gamma!r} must lie in [0, 1)")
+        if cache_size < 1:
+            raise ValueError(f"cache_size={cache_size!r} must be >= 1")
         self.gamma = gamma
-        self._policies: dict[Params, np.ndarray] = {}
+        self.cache_size = cache_size
+        self._policies: OrderedDict[tuple[object, Params], np.ndarray] = OrderedDict()
 
     @property
     def needs_model(self) -> bool:
@@ -62,11 +66,16 @@ class SnapshotValueIteration(Agent):
             raise ValueError(
                 "SnapshotValueIteration needs a tabular planning model (model.outcomes)"
             )
-        policy = self._policies.get(model.theta)
+        key = (model.family, model.theta)
+        policy = self._policies.get(key)
         if policy is None:
             _, q_values = value_iteration(model.outcomes, self.gamma)
             policy = q_values.argmax(axis=1)
-            self._policies[model.theta] = policy
+            self._policies[key] = policy
+            if len(self._policies) > self.cache_size:
+                self._policies.popitem(last=False)
+        else:
+            self._policies.move_to_end(key)
         return int(policy[model.get_state()])
 
     def __repr__(self) -> str:

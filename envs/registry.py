@@ -45,18 +45,18 @@ class NSEnvSpec:
     description: str
     family_kwargs: Mapping[str, Any] = field(default_factory=dict)
 
-    def build_family(self, overrides: Mapping[str, Any]) -> EnvFamily:
+    def build_family(self, overrides: Mapping[str, Any], ns_names: set[str]) -> EnvFamily:
         """The family with the registered arguments, updated by ``overrides``.
 
         Raises:
-            TypeError: An argument the family's constructor does not take.
+            TypeError: An argument neither the family's constructor nor ``ns_names`` takes.
         """
         kwargs = {**self.family_kwargs, **overrides}
         signature = inspect.signature(self.family)
         for name in kwargs:
             if name not in signature.parameters:
-                allowed = sorted(set(signature.parameters) | _VIEW_KWARGS | _GAME_KWARGS)
-                raise TypeError(f"{self.id} takes no argument {name!r}; allowed: {allowed}")
+                allowed = sorted(set(signature.parameters) | ns_names)
+                raise TypeError(f"{self.id} takes no argument {name!r} here; allowed: {allowed}")
         return self.family(**kwargs)
 
 
@@ -107,7 +107,7 @@ def make(env_id: str, **kwargs: Any) -> NSGame:
     env_spec = spec(env_id)
     ns_kwargs, family_kwargs = _split(kwargs, _GAME_KWARGS)
     ns_kwargs.setdefault("max_episode_steps", env_spec.max_episode_steps)
-    return NSGame(env_spec.build_family(family_kwargs), **ns_kwargs)
+    return NSGame(env_spec.build_family(family_kwargs, _GAME_KWARGS), **ns_kwargs)
 
 
 def make_gym(env_id: str, **kwargs: Any) -> NSGymEnv:
@@ -115,7 +115,7 @@ def make_gym(env_id: str, **kwargs: Any) -> NSGymEnv:
     env_spec = spec(env_id)
     ns_kwargs, family_kwargs = _split(kwargs, _VIEW_KWARGS)
     ns_kwargs.setdefault("max_episode_steps", env_spec.max_episode_steps)
-    return NSGymEnv(env_spec.build_family(family_kwargs), **ns_kwargs)
+    return NSGymEnv(env_spec.build_family(family_kwargs, _VIEW_KWARGS), **ns_kwargs)
 
 
 def _gymnasium_entry_point(env_id: str, **kwargs: Any) -> NSGymEnv:
@@ -123,7 +123,7 @@ def _gymnasium_entry_point(env_id: str, **kwargs: Any) -> NSGymEnv:
     env_spec = spec(env_id)
     ns_kwargs, family_kwargs = _split(kwargs, _VIEW_KWARGS)
     ns_kwargs["max_episode_steps"] = None
-    return NSGymEnv(env_spec.build_family(family_kwargs), **ns_kwargs)
+    return NSGymEnv(env_spec.build_family(family_kwargs, _VIEW_KWARGS), **ns_kwargs)
 
 
 def _split(kwargs: Mapping[str, Any], ns_names: set[str]) -> tuple[dict[str, Any], dict[str, Any]]:

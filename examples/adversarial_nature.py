@@ -21,6 +21,7 @@ game = ns_pz.make(
 agent = SnapshotValueIteration(gamma=0.99)
 rng = np.random.default_rng(0)
 game.reset(seed=0)
+game.action_space(ns_pz.NATURE).seed(0)  # the naive adversary samples from nature's action space
 agent.reset(rng)
 returns = {name: 0.0 for name in game.possible_agents}
 for name in game.agent_iter():

@@ -56,7 +56,7 @@ class EnvFamily(ABC):
         """Return ``action`` in canonical form, or raise ``ValueError`` if it is not allowed."""
         space = self.action_space
         if isinstance(space, spaces.Discrete):
-            if type(action) is int and 0 <= action < space.n:
+            if type(action) is int and space.start <= action < space.start + space.n:
                 return action
             if isinstance(action, (np.integer, np.ndarray)) and space.contains(action):
                 return int(action)

@@ -111,14 +111,20 @@ class NSGame(AECEnv):
         low, high = self._nature_space.low, self._nature_space.high
         self._delta_bounds = tuple(zip(low.tolist(), high.tolist(), strict=True))
         self._uniform_bounds = self._delta_bounds[0] if len(set(self._delta_bounds)) == 1 else None
-        self._flat_layout: list[tuple[str, bool, int, int]] = []
-        start = 0
-        for spec in params_cls.specs():
-            self._flat_layout.append((spec.name, spec.kind == SIMPLEX, start, start + spec.size))
-            start += spec.size
+        self._flat_layout = [
+            (spec.name, spec.kind == SIMPLEX, start, stop)
+            for spec, start, stop in params_cls.flat_layout()
+        ]
         self._notification: tuple[tuple, tuple] = (self._process.no_change,) * 2
         self._rewarded = False
         self._scripted: tuple[np.ndarray, list, Any] | None = None
+        # Before the first reset: calls meet ResetNeeded, not missing attributes.
+        self.agent_selection = NATURE
+        self.rewards: dict[str, float] = {}
+        self._cumulative_rewards: dict[str, float] = {}
+        self.terminations: dict[str, bool] = {}
+        self.truncations: dict[str, bool] = {}
+        self.infos: dict[str, dict[str, Any]] = {}
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
         """The (always identical) observation space of ``agent``."""
@@ -143,6 +149,7 @@ class NSGame(AECEnv):
         self.agent_selection = NATURE
         self._notification = (process.no_change, process.no_change)
         self._rewarded = False
+        self._scripted = None
 
     def observe(self, agent: str) -> Any:
         """What ``agent`` sees now (see :mod:`ns_pz.observations`)."""
@@ -174,26 +181,31 @@ class NSGame(AECEnv):
         process = self._process
         if process.done:
             process.check_running("step()")
-        # Rewards arise only from the transition at the end of the decision turn; the other
-        # turns just clear them and restart the acting agent's running total.
-        self._cumulative_rewards[agent] = 0.0
+        # Each branch validates before it changes anything, so a refused action leaves the
+        # game as it was (rewards included).
         if agent == NATURE:
-            self._zero_rewards()
             scripted = self._scripted
             if scripted is not None and action is scripted[0] and action.tolist() == scripted[1]:
                 proposal = scripted[2]  # the policy's own values, exact
             else:
                 proposal = self._proposal(action)
-            self._scripted = None
             process.nature_turn(proposal)
-            self.agent_selection = MONITOR
+            self._scripted = None
+            following = MONITOR
         elif agent == MONITOR:
-            self._zero_rewards()
             flags, sizes = _notification_of(action)
             self._notification = mask_notification(process.level, flags, sizes, process.no_change)
-            self.agent_selection = DECISION
+            following = DECISION
         else:
-            self._decision_turn(process.family.check_action(action))
+            action = process.family.check_action(action)
+        # Rewards arise only from the transition at the end of the decision turn; the other
+        # turns just clear them and restart the acting agent's running total.
+        self._cumulative_rewards[agent] = 0.0
+        if agent == DECISION:
+            self._decision_turn(action)
+        else:
+            self._zero_rewards()
+            self.agent_selection = following
 
     def _zero_rewards(self) -> None:
         if self._rewarded:
@@ -225,7 +237,7 @@ class NSGame(AECEnv):
         if type(action) is np.ndarray and action.ndim == 1 and action.dtype.kind in "fiu":
             delta = action.tolist()
         else:
-            delta = _as_vector(action, "nature action")
+            delta = _number_list(action, "nature action")
             if np.ndim(action) != 1:
                 delta = []  # reported as outside the space below
         if len(delta) != len(self._delta_bounds):
@@ -318,11 +330,9 @@ def delta_of(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -> n
     """Δθ (flat, clipped to nature's action space) that moves ``theta`` to the proposed values."""
     current = theta.flat()
     target = current.copy()
-    start = 0
-    for spec in theta.specs():
+    for spec, start, stop in theta.flat_layout():
         if spec.name in proposal:
-            target[start : start + spec.size] = proposal[spec.name]
-        start += spec.size
+            target[start:stop] = proposal[spec.name]
     return np.clip(target - current, space.low, space.high)
 
 
@@ -334,14 +344,14 @@ def _notification_of(action: Any) -> tuple[list, list]:
         raise ValueError(
             f"monitor action={action!r} must be a dict with keys 'env_change' and 'delta_change'"
         ) from None
-    flag_list = _as_vector(flags, "monitor action env_change")
-    size_list = _as_vector(sizes, "monitor action delta_change")
+    flag_list = _number_list(flags, "monitor action env_change")
+    size_list = _number_list(sizes, "monitor action delta_change")
     if not set(flag_list) <= {0, 1}:
         raise ValueError(f"monitor action env_change={flags!r} must hold only 0 and 1")
     return flag_list, size_list
 
 
-def _as_vector(value: Any, what: str) -> list:
+def _number_list(value: Any, what: str) -> list:
     """A 1-D numeric array or sequence as a list of Python numbers."""
     if type(value) is np.ndarray and value.ndim == 1 and value.dtype.kind in "fiub":
         return value.tolist()

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import itertools
 import math
 import operator
 from collections.abc import Iterable, Mapping, Sequence
@@ -135,7 +136,7 @@ class ParamSpec:
         """
         # Fast paths for values that are already admissible (NaN fails every comparison).
         if type(value) is float:
-            if self.kind == SCALAR and self.contains(value):
+            if self.kind == SCALAR and self.contains(value) and math.isfinite(value):
                 return value
         elif type(value) is tuple and len(value) == self.size and self.kind == SIMPLEX:
             if min(value) >= 0.0 and max(value) <= 1.0 and abs(sum(value) - 1.0) <= SIMPLEX_ATOL:
@@ -145,17 +146,19 @@ class ParamSpec:
             number = _as_float(value, where)
             if math.isnan(number):
                 raise ParamOutOfRange(f"{where} is NaN; allowed: {self.allowed()}")
-            if self.contains(number):
-                return number
             if number <= self.low:
-                return math.nextafter(self.low, math.inf) if self.low_open else self.low
-            return math.nextafter(self.high, -math.inf) if self.high_open else self.high
+                number = math.nextafter(self.low, math.inf) if self.low_open else self.low
+            elif number >= self.high:
+                number = math.nextafter(self.high, -math.inf) if self.high_open else self.high
+            if not math.isfinite(number):  # an unbounded side has no nearest finite value
+                raise ParamOutOfRange(f"{where} has no nearest finite value in {self.allowed()}")
+            return number
         vector = _as_vector(value, where, self.size)
-        if any(math.isnan(p) for p in vector):
-            raise ParamOutOfRange(f"{where} contains NaN; allowed: {self.allowed()}")
+        if not all(math.isfinite(p) for p in vector):
+            raise ParamOutOfRange(f"{where} is not finite; allowed: {self.allowed()}")
         if all(0.0 <= p <= 1.0 for p in vector) and abs(math.fsum(vector) - 1.0) <= SIMPLEX_ATOL:
             return vector
-        return project_to_simplex(vector)
+        return self.check("projection of " + where, project_to_simplex(vector))  # type: ignore[return-value]
 
     def distance(self, a: Value, b: Value) -> float:
         """Size of the change from ``a`` to ``b``: |a - b|, or W1 (total variation) for vectors."""
@@ -174,8 +177,11 @@ def project_to_simplex(vector: Sequence[float]) -> tuple[float, ...]:
     """Euclidean projection of a finite vector onto the probability simplex.
 
     Sort-based algorithm (Held, Wolfe & Crowder 1974): subtract the threshold that makes the
-    positive part sum to one.
+    positive part sum to one. The projection is unchanged by adding a constant to every
+    element, so the largest is first shifted to 0, which keeps huge inputs exact enough.
     """
+    top = max(vector)
+    vector = [p - top for p in vector]
     ordered = sorted(vector, reverse=True)
     running = 0.0
     threshold = 0.0
@@ -246,7 +252,10 @@ class Params:
         layout = Params._layouts.get(cls)
         if layout is None:
             specs = tuple(_spec_of(cls, f) for f in dataclasses.fields(cls))  # type: ignore[arg-type]
-            layout = _Layout(specs, tuple(s.name for s in specs), {s.name: s for s in specs})
+            stops = list(itertools.accumulate(s.size for s in specs))
+            slices = tuple((s, stop - s.size, stop) for s, stop in zip(specs, stops, strict=True))
+            by_name = {s.name: s for s in specs}
+            layout = _Layout(specs, tuple(s.name for s in specs), by_name, slices)
             Params._layouts[cls] = layout
         return layout
 
@@ -334,20 +343,9 @@ class Params:
         return out
 
     @classmethod
-    def split_flat(cls, flat: Sequence[float]) -> dict[str, Value]:
-        """Cut a flat vector into per-parameter values (no validation)."""
-        values: dict[str, Value] = {}
-        start = 0
-        for spec in cls.specs():
-            chunk = [float(x) for x in flat[start : start + spec.size]]
-            values[spec.name] = tuple(chunk) if spec.kind == SIMPLEX else chunk[0]
-            start += spec.size
-        return values
-
-    @classmethod
-    def flat_size(cls) -> int:
-        """Length of :meth:`flat`."""
-        return sum(spec.size for spec in cls.specs())
+    def flat_layout(cls) -> tuple[tuple[ParamSpec, int, int], ...]:
+        """Where each parameter sits in :meth:`flat`: ``(spec, start, stop)`` in field order."""
+        return cls._layout().slices
 
     @classmethod
     def flat_bounds(cls) -> tuple[np.ndarray, np.ndarray]:
@@ -375,6 +373,7 @@ class _Layout:
     specs: tuple[ParamSpec, ...]
     names: tuple[str, ...]
     by_name: dict[str, ParamSpec]
+    slices: tuple[tuple[ParamSpec, int, int], ...]
 
 
 def _spec_of(cls: type, f: dataclasses.Field[Any]) -> ParamSpec:

@@ -41,10 +41,12 @@ class GroundTruth:
 
     Attributes:
         theta0: θ at reset.
-        theta: θ in force now (the one the last transition used).
+        theta: θ in force now: after nature's latest move, so in the game, between nature's
+            turn and the transition, it is θ_t, which no transition has used yet.
         change_times: Steps at which θ changed (a change at ``t`` applies to transition ``t``).
         change_values: θ after each of those changes.
-        total_change: Sum of the sizes of all changes so far (what a budget is charged).
+        total_change: Sum of the sizes of all recorded changes, ``set_params`` ones included
+            (nature's budget is charged for nature's own moves only).
     """
 
     theta0: Params
@@ -117,12 +119,14 @@ class NSProcess:
         self.done = True
         self.state: State = None
         self.theta = self.theta0
-        self._step_start_theta = self.theta0
+        self.last_theta = self.theta0
+        """θ that drove the last transition (θ_0 before the first)."""
         self.t = 0
         self.last_action: Any = None
         self.last_reward = 0.0
         self.last_state: State = None
         self.last_change: tuple[Params, Params] | None = None
+        """(θ before, θ after) of the change behind the last transition, if there was one."""
         self.budget_used = 0.0
         self.change_times: list[int] = []
         self.change_values: list[Params] = []
@@ -145,7 +149,7 @@ class NSProcess:
             self.seed(None)
         self.state = self.family.initial_state(cast(np.random.Generator, self.env_rng))
         self.theta = self.theta0
-        self._step_start_theta = self.theta0
+        self.last_theta = self.theta0
         self.t = 0
         self.last_action = None
         self.last_reward = 0.0
@@ -263,11 +267,11 @@ class NSProcess:
         self.last_action = action
         self.last_reward = reward
         theta = self.theta
-        if theta is self._step_start_theta:
+        if theta is self.last_theta:
             self.last_change = None
         else:
-            self.last_change = (self._step_start_theta, theta)
-            self._step_start_theta = theta
+            self.last_change = (self.last_theta, theta)
+            self.last_theta = theta
         self.t += 1
         limit = self.max_episode_steps
         truncated = limit is not None and self.t >= limit
@@ -276,15 +280,21 @@ class NSProcess:
 
     # -- what agents may be handed ----------------------------------------------------------
     def planning_theta(self) -> Params:
-        """θ the agent's planning model assumes: the current θ at ``detailed``, else θ_0."""
-        return self.theta if self.level.shows_sizes else self.theta0
+        """θ the agent's planning model assumes: θ_0, or at ``detailed`` the latest θ it knows.
+
+        That is the θ behind the last transition, never one nature has chosen for a transition
+        still to come: in the game the agent plans after nature's turn, and must not see it.
+        """
+        return self.last_theta if self.level.shows_sizes else self.theta0
 
     def planning_rng(self) -> np.random.Generator:
         """A fresh generator for one planning model, from the seed (deterministic sequence)."""
+        return np.random.Generator(np.random.PCG64(self._spawn_planning_seed()))
+
+    def _spawn_planning_seed(self) -> np.random.SeedSequence:
         if self._planning_seeds is None:
-            self.seed(None)
-        child = self._planning_seeds.spawn(1)[0]  # type: ignore[union-attr]
-        return np.random.Generator(np.random.PCG64(child))
+            raise ResetNeeded("planning needs a seeded episode; call reset() first")
+        return self._planning_seeds.spawn(1)[0]
 
     def planning_model(self) -> Any:
         """A stationary model at the current state under :meth:`planning_theta`."""
@@ -302,11 +312,12 @@ class NSProcess:
             raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
         twin = copy.copy(self)
         theta = self.planning_theta()
-        twin.theta0 = twin.theta = twin._step_start_theta = theta
+        twin.theta0 = twin.theta = twin.last_theta = theta
         twin.nature = _STATIC
         twin.nature_memory = None
         twin.constraints = _UNCONSTRAINED
-        twin.env_rng = self.planning_rng()
+        twin.seed(self._spawn_planning_seed())  # own streams: using the twin never touches ours
+        twin.monitor_memory = self.monitor.initial_memory()
         twin.last_change = None
         twin.change_times = []
         twin.change_values = []

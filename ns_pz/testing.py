@@ -2,13 +2,14 @@
 
 :func:`check_ns_env` runs, for one environment id:
 
-* PettingZoo's ``api_test`` and ``seed_test`` on the AEC game, with nature perturbing every
-  parameter at every step so that θ really moves;
+* PettingZoo's ``api_test`` and ``seed_test`` on the AEC game (they draw nature's actions from
+  its whole action space, so θ moves at every step and often hits its bounds);
 * Gymnasium's ``check_env`` on the Gymnasium view, at every notification level;
 * the ns_pz invariants: θ is a valid parameter set after every nature move, whatever nature
   asks for; no θ object is ever mutated; the same seed gives the same θ trajectory,
   notifications and states; the turn order is nature → monitor → agent; the game and the view
-  give identical trajectories for the same seed and actions.
+  give identical trajectories and hand the agent planning models with the same θ, for the
+  same seed and actions.
 
 ``tests/test_conformance.py`` runs it over :func:`ns_pz.registered_envs`, so registering an
 environment is what gets it tested.
@@ -21,6 +22,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env, data_equivalence
 from pettingzoo.test import api_test, seed_test
 
@@ -119,7 +121,7 @@ def check_theta_invariants(env_id: str, num_cycles: int = 60, **kwargs: Any) -> 
             previous = theta
         else:
             action = game.policy_action(MONITOR) if agent == MONITOR else None
-            game.step(action if action is not None else game.action_space(agent).sample())
+            game.step(action if action is not None else _action(game, DECISION, rng))
     for theta, values in seen:
         assert theta.as_dict() == values, f"a θ object was mutated: {values} -> {theta.as_dict()}"
 
@@ -169,10 +171,11 @@ def check_turn_order(env_id: str, **kwargs: Any) -> None:
     game = _stress_game(env_id, 4, **kwargs)
     game.reset(seed=0)
     order = []
+    rng = np.random.default_rng(0)
     for agent in game.agent_iter():
         _, _, terminated, truncated, _ = game.last()
         order.append((agent, terminated or truncated))
-        game.step(None if terminated or truncated else game.action_space(agent).sample())
+        game.step(None if terminated or truncated else _action(game, agent, rng))
     live = [agent for agent, done in order if not done]
     cycles = len(live) // 3
     assert live == list(AGENTS) * cycles, f"turn order broken: {live}"
@@ -200,7 +203,9 @@ def check_game_matches_view(env_id: str, num_cycles: int = 60, **kwargs: Any) ->
             game.step(game.policy_action(MONITOR))
             game_obs = game.observe(DECISION)
             assert data_equivalence(game_obs, view_obs), f"{level}: {game_obs} != {view_obs}"
-            action = _action(view, actions)
+            planned = game.planning_model().theta, view.planning_model().theta
+            assert planned[0] == planned[1], f"{level}: planning θ differs: {planned}"
+            action = _action(game, DECISION, actions)
             game.step(action)
             view_obs, reward, terminated, truncated, _ = view.step(action)
             assert game.rewards[DECISION] == reward
@@ -211,8 +216,12 @@ def check_game_matches_view(env_id: str, num_cycles: int = 60, **kwargs: Any) ->
                 break
 
 
-def _action(env: Any, rng: np.random.Generator) -> Any:
-    space = env.action_space
+def _action(env: Any, agent: str, rng: np.random.Generator) -> Any:
+    """A seeded random action of ``agent`` (the decision agent's, or any game agent's)."""
+    space = env.action_space(agent)
     if hasattr(space, "n"):
-        return int(rng.integers(space.n))
-    return rng.uniform(space.low, space.high).astype(space.dtype)
+        return int(space.start + rng.integers(space.n))
+    if isinstance(space, spaces.Box):
+        return rng.uniform(space.low, space.high).astype(space.dtype)
+    space.seed(int(rng.integers(2**31)))
+    return space.sample()

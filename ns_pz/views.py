@@ -92,13 +92,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         if process.done:
             process.check_running("step()")
         action = process.family.check_action(action)
-        proposal = process.nature.propose(
-            process.t,
-            process.theta,
-            process.budget_left,
-            process.nature_memory,
-            process.nature_rng,  # type: ignore[arg-type]
-        )
+        proposal = process.scripted_proposal()
         if proposal:
             process.nature_turn(proposal)
         reward, terminated, truncated = process.transition(action)

@@ -169,3 +169,24 @@ def test_outcome_structure_is_shared_between_snapshots():
     assert first.probs.shape == (64, 4, 3) and first.probs.strides[1] == 0  # broadcast, no copy
     np.testing.assert_allclose(second.probs.sum(axis=2), 1.0)
     assert not first.next_states.flags.writeable
+
+
+def test_slip_outcomes_are_oriented_as_documented():
+    """Outcome k=1 is action+1 and k=2 action-1, checked against Gymnasium's own listing.
+
+    Gymnasium's slippery table lists the moves in the order action-1, action, action+1.
+    """
+    family = FrozenLakeFamily("4x4")
+    reference = gym.make("FrozenLake-v1").unwrapped.P
+    for s in range(16):
+        if family.is_terminal_state(s):
+            continue
+        for a in range(4):
+            minus, straight, plus = (entry[1] for entry in reference[s][a])
+            assert [family._table[s][a][k][0] for k in range(3)] == [straight, plus, minus]
+    lake = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": (0.0, 1.0, 0.0)})
+    lake.reset(seed=0)
+    assert lake.step(0)[0]["state"] == 4  # LEFT turned by +1 is DOWN
+    lake = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": (0.0, 0.0, 1.0)})
+    lake.reset(seed=0)
+    assert lake.step(2)[0]["state"] == 4  # RIGHT turned by -1 is DOWN

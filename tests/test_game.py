@@ -9,7 +9,13 @@ from pettingzoo.utils.conversions import turn_based_aec_to_parallel
 
 import ns_pz
 from ns_pz import DECISION, MONITOR, NATURE, ResetNeeded
-from ns_pz.nature import DiscreteScheduler, RandomNature, ScriptedNature, StepWiseUpdate
+from ns_pz.nature import (
+    DiscreteScheduler,
+    NatureConstraints,
+    RandomNature,
+    ScriptedNature,
+    StepWiseUpdate,
+)
 
 
 def quiet(count: int) -> dict:
@@ -166,3 +172,79 @@ def test_turn_based_parallel_conversion_runs():
         parallel.step(actions)
         steps += 1
     assert not parallel.agents
+
+
+def test_detailed_planning_model_never_shows_the_coming_theta():
+    """At the agent's turn nature has chosen θ_t; the planning model still holds θ_{t-1}."""
+    schedule = StepWiseUpdate(DiscreteScheduler({1}), [0.5])
+    game = ns_pz.make(
+        "ns_pz/CartPole-v0",
+        nature=ScriptedNature({"masspole": schedule}),
+        notification="detailed",
+    )
+    game.reset(seed=0)
+    seen = []
+    for _ in range(3):
+        game.step(game.policy_action(NATURE))
+        game.step(game.policy_action(MONITOR))
+        seen.append(game.planning_model().theta.masspole)
+        game.step(1)
+    assert seen == [0.1, 0.1, 0.5]  # θ_1 = 0.5 drives transition 1; known from decision 2
+
+
+def test_a_refused_action_changes_nothing():
+    """Invalid nature, monitor or agent actions leave rewards, totals and the turn untouched."""
+    game = ns_pz.make("ns_pz/CartPole-v0")
+    game.reset(seed=0)
+    game.step(np.zeros(6))
+    game.step(quiet(6))
+    game.step(1)
+    before = (dict(game.rewards), dict(game._cumulative_rewards), game.agent_selection)
+    with pytest.raises(ValueError):
+        game.step(np.full(6, np.nan))
+    assert (dict(game.rewards), dict(game._cumulative_rewards), game.agent_selection) == before
+    game.step(np.zeros(6))
+    game.step(quiet(6))
+    totals = dict(game._cumulative_rewards)
+    with pytest.raises(ValueError, match="outside the action space"):
+        game.step(7)
+    assert game._cumulative_rewards == totals and game.agent_selection == DECISION
+
+
+def test_blocked_changes_are_not_recorded():
+    """A zero Lipschitz bound freezes θ, and the ground truth records no change."""
+    game = ns_pz.make(
+        "ns_pz/CartPole-v0", constraints=NatureConstraints(lipschitz={"masspole": 0.0})
+    )
+    game.reset(seed=0)
+    for _ in range(3):
+        delta = np.zeros(6)
+        delta[2] = 0.3
+        game.step(delta)
+        game.step(quiet(6))
+        game.step(1)
+    truth = game.ground_truth()
+    assert truth.change_times == () and truth.theta == truth.theta0
+
+
+def test_calls_before_reset_raise_reset_needed():
+    """step() and last() on a game never reset raise ResetNeeded, not AttributeError."""
+    game = ns_pz.make("ns_pz/FrozenLake-v0")
+    with pytest.raises(ResetNeeded, match="before reset"):
+        game.step(np.zeros(3))
+    with pytest.raises(ResetNeeded, match="before reset"):
+        game.last()
+
+
+def test_a_scripted_action_from_a_past_episode_is_a_plain_delta():
+    """After reset, an array from the old episode's policy_action is applied as Δθ only."""
+    schedule = StepWiseUpdate(DiscreteScheduler({0, 1}), [0.3, 0.5])
+    game = ns_pz.make("ns_pz/CartPole-v0", nature=ScriptedNature({"masspole": schedule}))
+    game.reset(seed=0)
+    game.step(game.policy_action(NATURE))
+    game.step(game.policy_action(MONITOR))
+    game.step(1)
+    old = game.policy_action(NATURE)  # Δ 0.2 towards the scripted 0.5
+    game.reset(seed=0)
+    game.step(old)
+    assert game.ground_truth().theta.masspole == pytest.approx(0.3)  # θ_0 + Δ, not 0.5

@@ -185,7 +185,7 @@ def test_admit_refuses_nan_and_unknown_names():
     ("kwargs", "error", "match"),
     [
         ({"lipschitz": -1.0}, ValueError, r"lipschitz=-1.0 must be >= 0"),
-        ({"budget": math.nan}, ValueError, r"budget=nan must be >= 0"),
+        ({"budget": math.nan}, ValueError, r"budget=nan must be finite"),
         ({"lipschitz": "x"}, TypeError, r"lipschitz='x' must be a real number"),
         ({"lipschitz": {"masspole": -2}}, ValueError, r"lipschitz\['masspole'\]=-2"),
     ],
@@ -207,3 +207,13 @@ def test_random_nature_stays_inside_bounds_after_projection():
                 theta, nature.propose(t, theta, math.inf, None, rng), NatureConstraints(), math.inf
             )
             assert type(theta)(**theta.as_dict()) == theta
+
+
+def test_random_nature_scale_is_checked():
+    """RandomNature needs a finite, non-negative real scale."""
+    with pytest.raises(ValueError, match="scale=inf must be finite"):
+        RandomNature(math.inf)
+    with pytest.raises(ValueError, match="scale=-1 must be >= 0"):
+        RandomNature(-1)
+    with pytest.raises(TypeError, match="scale='big' must be a real number"):
+        RandomNature("big")

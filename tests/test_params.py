@@ -85,9 +85,11 @@ def test_vector_within_tolerance_is_accepted_and_stored_as_tuple():
 
 
 def test_flat_round_trip_and_bounds():
-    """flat()/split_flat() invert each other; flat bounds follow the specs."""
-    theta = FrozenLakeParams(slip=(0.6, 0.3, 0.1))
-    assert FrozenLakeParams.split_flat(theta.flat()) == {"slip": (0.6, 0.3, 0.1)}
+    """flat() follows flat_layout(); flat bounds follow the specs."""
+    theta = CartPoleParams(masspole=0.3)
+    for spec, start, stop in CartPoleParams.flat_layout():
+        assert theta.flat()[start:stop].tolist() == [getattr(theta, spec.name)]
+    assert FrozenLakeParams.flat_layout()[0][1:] == (0, 3)
     low, high = CartPoleParams.flat_bounds()
     assert low[0] == 0.0 and high[2] == 1e3
 
@@ -138,3 +140,18 @@ def test_random_valid_theta_never_fails_validation():
         }
         theta = CartPoleParams(**values)
         assert theta.as_dict() == values
+
+
+def test_projection_refuses_what_has_no_nearest_value_and_survives_huge_inputs():
+    """inf on an unbounded side and non-finite vectors are refused; huge vectors still project."""
+    from ns_pz.params import ParamSpec
+
+    free = ParamSpec("x", "scalar", 0.0)
+    with pytest.raises(ParamOutOfRange, match="no nearest finite value"):
+        free.project("P", math.inf)
+    assert CartPoleParams.spec("gravity").project("C", math.inf) == 1e3  # bounded: clipped
+    slip = FrozenLakeParams.spec("slip")
+    assert slip.project("F", (1e17, 0.0, 0.0)) == (1.0, 0.0, 0.0)
+    assert slip.project("F", (-1e300, 1e300, 0.0)) == (0.0, 1.0, 0.0)
+    with pytest.raises(ParamOutOfRange, match="is not finite"):
+        slip.project("F", (math.inf, 0.0, 0.0))

@@ -43,10 +43,11 @@ def test_unknown_id_suggests_close_matches():
 
 def test_unknown_argument_lists_what_is_allowed():
     """An argument neither the NS-MDP nor the family takes is a TypeError listing both."""
-    with pytest.raises(
-        TypeError, match=r"takes no argument 'is_slippery'; allowed: \[.*'map_name'"
-    ):
+    with pytest.raises(TypeError, match=r"no argument 'is_slippery' here; allowed: \[.*'map_name'"):
         ns_pz.make("ns_pz/FrozenLake-v0", is_slippery=True)
+    with pytest.raises(TypeError, match="no argument 'ground_truth_info'") as error:
+        ns_pz.make("ns_pz/FrozenLake-v0", ground_truth_info=True)  # a view option, not the game's
+    assert "'ground_truth_info'" not in str(error.value).split("allowed:")[1]
 
 
 def test_family_arguments_reach_the_family():

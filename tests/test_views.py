@@ -117,6 +117,25 @@ def test_planning_envs_are_reproducible_from_the_seed():
         return states
 
     assert futures(5) == futures(5)
+    assert len({tuple(futures(seed)) for seed in range(6)}) > 1
+
+
+def test_using_a_planning_env_leaves_the_real_env_streams_alone():
+    """Planning inside a planning twin changes neither the real env's planning draws nor its own."""
+
+    def real_draws(use_twin: bool) -> list:
+        env = ns_pz.make_gym("ns_pz/FrozenLake-v0", notification="detailed")
+        env.reset(seed=4)
+        twin = env.get_planning_env()
+        assert twin._process.monitor_rng is not env._process.monitor_rng
+        if use_twin:
+            twin.planning_model()
+            twin.get_planning_env()
+            twin.step(1)
+        model = env.planning_model()
+        return [model.transition(0, 2)[0] for _ in range(12)] + [env.step(1)[0]["state"]]
+
+    assert real_draws(False) == real_draws(True)
 
 
 def test_bad_calls_raise_before_anything_changes():
@@ -128,15 +147,18 @@ def test_bad_calls_raise_before_anything_changes():
         env.planning_model()
     with pytest.raises(ResetNeeded, match="step\\(\\) called before reset"):
         env.step(0)
+    assert not env._process.started
     env.reset(seed=0, options=None)
     env.set_params(slip=(1.0, 0.0, 0.0))
     for _ in range(3):  # DOWN three times from the start, without slipping: the hole at (3, 0)
         *_, terminated, _, _ = env.step(1)
     assert terminated
+    t, state, truth = env._process.t, env._process.state, env.ground_truth()
     with pytest.raises(ResetNeeded, match="after the episode ended"):
         env.step(0)
     with pytest.raises(ResetNeeded, match="set_params\\(\\) called after the episode ended"):
         env.set_params(slip=(0.5, 0.25, 0.25))
+    assert (env._process.t, env._process.state, env.ground_truth()) == (t, state, truth)
 
 
 @pytest.mark.parametrize("action", [4, -1, 1.5, "left", None, np.array([1, 2])])
@@ -192,7 +214,16 @@ def test_same_seed_same_everything_and_unseeded_reset_continues():
     make = lambda: ns_pz.make_gym("ns_pz/FrozenLake-v0", nature=nature, notification="detailed")  # noqa: E731
     first, second = episodes(make()), episodes(make())
     assert first == second
-    assert len({len(first)}) == 1
+
+    env = make()
+    env.reset(seed=3)
+    seeded = env.np_random.bit_generator.state, env._process.nature_rng.bit_generator.state
+    env.step(1)
+    env.reset()  # no seed: the streams go on rather than replay seed 3
+    assert env.np_random.bit_generator.state != seeded[0]
+    env.reset(seed=3)
+    assert env.np_random.bit_generator.state == seeded[0]
+    assert env._process.nature_rng.bit_generator.state == seeded[1]
 
 
 def test_gymnasium_make_applies_its_time_limit_and_kwargs():

@@ -24,6 +24,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+from ns_pz.nature.updates import check_real
 from ns_pz.params import SIMPLEX, Params, ParamSpec, Value
 
 
@@ -60,11 +61,6 @@ class NatureConstraints:
         if self.lipschitz is None or isinstance(self.lipschitz, Mapping):
             return self._per_param.get(name)
         return float(self.lipschitz)
-
-    @property
-    def unconstrained(self) -> bool:
-        """True when only the bounds apply (the common, fast case)."""
-        return self.lipschitz is None and self.budget is None
 
 
 def admit(
@@ -114,6 +110,8 @@ def admit(
             if limit is not None and size > limit:
                 new = _towards(spec, old, new, limit / size)
                 size = spec.distance(old, new)
+                if size == 0.0:  # the bound allows no move at all
+                    continue
         granted[name] = new
         sizes[name] = size
     if not granted:
@@ -153,8 +151,7 @@ def _towards(spec: ParamSpec, old: Value, new: Value, fraction: float) -> Value:
 
 
 def _check_limit(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise TypeError(f"{name}={value!r} must be a real number")
-    if math.isnan(value) or value < 0:
+    number = check_real(name, value)
+    if number < 0:
         raise ValueError(f"{name}={value!r} must be >= 0")
-    return float(value)
+    return number

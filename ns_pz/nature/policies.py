@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ns_pz.nature.updates import DistributionUpdateFn, UpdateFn
+from ns_pz.nature.updates import DistributionUpdateFn, UpdateFn, check_real
 from ns_pz.params import SIMPLEX, Params, Value
 
 Proposal = Mapping[str, Value] | None
@@ -143,9 +143,9 @@ class RandomNature(Nature):
     """
 
     def __init__(self, scale: float = 0.05) -> None:
-        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not scale >= 0:
-            raise ValueError(f"scale={scale!r} must be a real number >= 0")
-        self.scale = float(scale)
+        self.scale = check_real("scale", scale)
+        if self.scale < 0:
+            raise ValueError(f"scale={scale!r} must be >= 0")
 
     def propose(
         self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
