@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-import ns_pz
 from ns_pz.agents import RandomAgent, RandomShooting, SnapshotValueIteration, value_iteration
 from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
+
+import ns_pz
 
 
 def test_value_iteration_on_a_deterministic_lake_finds_the_shortest_path():

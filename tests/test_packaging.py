@@ -5,11 +5,11 @@ from __future__ import annotations
 from importlib import metadata
 from pathlib import Path
 
+import ns_pz.agents
+import ns_pz.envs
 import pytest
 
 import ns_pz
-import ns_pz.agents
-import ns_pz.envs
 
 
 def installed_files() -> list[str]:

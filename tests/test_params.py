@@ -143,7 +143,7 @@ def test_random_valid_theta_never_fails_validation():
 
 
 def test_projection_refuses_what_has_no_nearest_value_and_survives_huge_inputs():
-    """inf on an unbounded side and non-finite vectors are refused; huge vectors still project."""
+    """Inf on an unbounded side and non-finite vectors are refused; huge vectors still project."""
     from ns_pz.params import ParamSpec
 
     free = ParamSpec("x", "scalar", 0.0)
