@@ -316,7 +316,13 @@ class NSProcess:
         twin.nature = _STATIC
         twin.nature_memory = None
         twin.constraints = _UNCONSTRAINED
-        twin.seed(self._spawn_planning_seed())  # own streams: using the twin never touches ours
+        # Own streams, so using the twin never touches ours; its static nature draws nothing.
+        root = self._spawn_planning_seed()
+        monitor_seq, planning_seq = root.spawn(2)
+        twin.env_rng = np.random.Generator(np.random.PCG64(root))
+        twin.monitor_rng = np.random.Generator(np.random.PCG64(monitor_seq))
+        twin.nature_rng = twin.env_rng
+        twin._planning_seeds = planning_seq
         twin.monitor_memory = self.monitor.initial_memory()
         twin.last_change = None
         twin.change_times = []
