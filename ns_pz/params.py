@@ -259,6 +259,11 @@ class Params:
             Params._layouts[cls] = layout
         return layout
 
+    @staticmethod
+    def layout_of(theta: Params) -> _Layout:
+        """Lookup tables of ``theta``'s class (built when its first instance was validated)."""
+        return Params._layouts[type(theta)]
+
     @classmethod
     def specs(cls) -> tuple[ParamSpec, ...]:
         """The spec of every parameter, in field order."""
@@ -317,9 +322,8 @@ class Params:
         outside ns_pz should use :meth:`replace`.
         """
         cls = type(self)
-        layout = Params._layouts.get(cls) or cls._layout()
         new = object.__new__(cls)
-        for name in layout.names:
+        for name in Params._layouts[cls].names:  # built when the first instance was validated
             object.__setattr__(new, name, changes[name] if name in changes else getattr(self, name))
         return new
 

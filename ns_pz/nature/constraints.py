@@ -87,7 +87,7 @@ def admit(
         ParamOutOfRange: A proposed value is NaN or has the wrong shape.
     """
     owner = type(theta).__name__
-    by_name = theta._layout().by_name
+    by_name = Params.layout_of(theta).by_name
     granted: dict[str, Value] = {}
     if constraints.lipschitz is None and budget_left == math.inf:
         for name, raw in proposal.items():
