@@ -133,7 +133,9 @@ def _split(kwargs: Mapping[str, Any], ns_names: set[str]) -> tuple[dict[str, Any
 
 
 # --- the registered environments ------------------------------------------------------------
+from ns_pz.envs.bridge import BridgeFamily, SplitBridgeFamily  # noqa: E402
 from ns_pz.envs.cartpole import CartPoleFamily  # noqa: E402
+from ns_pz.envs.cliff_walking import CliffWalkingFamily  # noqa: E402
 from ns_pz.envs.frozen_lake import FrozenLakeFamily  # noqa: E402
 
 # CartPole-v1's physics with gravity, masses, length, force and time step as θ.
@@ -158,4 +160,25 @@ register(
     max_episode_steps=200,
     description="FrozenLake 8x8; θ: slip vector",
     map_name="8x8",
+)
+# CliffWalking-v1 (4x12) with the slip vector [intended, action+1, action-1, reverse] as θ.
+register(
+    "ns_pz/CliffWalking-v0",
+    CliffWalkingFamily,
+    max_episode_steps=200,
+    description="CliffWalking 4x12; θ: slip vector; goal_reward= (paper: 100)",
+)
+# Lecarpentier's Bridge with one global slip vector (the NS-Gym paper's setting).
+register(
+    "ns_pz/Bridge-v0",
+    BridgeFamily,
+    max_episode_steps=200,
+    description="Bridge 5x8; θ: slip vector; map_name='extra_hole' for NS-Gym's later map",
+)
+# The Bridge with separate slip vectors for the left and right halves.
+register(
+    "ns_pz/BridgeSplit-v0",
+    SplitBridgeFamily,
+    max_episode_steps=200,
+    description="Bridge 5x8; θ: slip_left (columns 0-3), slip_right (columns 4-7)",
 )
