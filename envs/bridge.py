@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ns_pz.envs.grid import Outcome, SlipGridFamily
+
 from ns_pz.params import Params, simplex
 
 MAPS = {

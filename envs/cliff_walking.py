@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ns_pz.envs.grid import Outcome, SlipGridFamily
+
 from ns_pz.nature.updates import check_real
 from ns_pz.params import Params, simplex
 

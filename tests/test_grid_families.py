@@ -1,4 +1,4 @@
-"""CliffWalking and Bridge: Gymnasium-equal dynamics, the paper's rewards, slip orientation, maps."""
+"""CliffWalking and Bridge: Gymnasium-equal dynamics, paper rewards, slip orientation, maps."""
 
 from __future__ import annotations
 
@@ -7,14 +7,14 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
-
-import ns_pz
 from ns_pz.envs.bridge import BridgeFamily, SplitBridgeFamily
 from ns_pz.envs.cliff_walking import CliffWalkingFamily
 
+import ns_pz
+
 
 def test_cliff_walking_matches_gymnasium_step_for_step():
-    """Deterministic θ, same seed, same actions: Gymnasium's CliffWalking-v1, cliff falls included."""
+    """Deterministic θ, same seed and actions: Gymnasium's CliffWalking-v1, cliff falls too."""
     reference = gym.make("CliffWalking-v1").unwrapped
     env = ns_pz.make_gym("ns_pz/CliffWalking-v0", max_episode_steps=10_000)
     reference.reset(seed=1)
