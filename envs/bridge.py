@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ns_pz.envs.grid import Outcome, SlipGridFamily
+from ns_pz.envs.grid import GoalHoleGridFamily
 
 from ns_pz.params import Params, simplex
 
@@ -49,7 +49,7 @@ class SplitBridgeParams(Params):
     )
 
 
-class BridgeFamily(SlipGridFamily):
+class BridgeFamily(GoalHoleGridFamily):
     """Bridge dynamics with one global slip vector.
 
     Args:
@@ -63,21 +63,8 @@ class BridgeFamily(SlipGridFamily):
         if map_name not in MAPS:
             raise ValueError(f"map_name={map_name!r} is not a map; allowed: {sorted(MAPS)}")
         self.map_name = map_name
-        super().__init__(MAPS[map_name], MOVES, offsets=(0, 1, -1))
-
-    def cell_outcome(self, state: int, row: int, col: int) -> Outcome:
-        """Goals pay +1, holes -1, both end the episode; other cells pay 0."""
-        letter = self.desc[row][col]
-        reward = 1.0 if letter == "G" else -1.0 if letter == "H" else 0.0
-        return row * self.ncol + col, reward, letter in "GH"
-
-    def is_terminal_state(self, state: int) -> bool:
-        """Goal and hole cells."""
-        return self.cell(state) in "GH"
-
-    def slip_param_of(self, state: int) -> str:
-        """One global slip vector."""
-        return "slip"
+        rewards = {"G": 1.0, "H": -1.0, "F": 0.0}
+        super().__init__(MAPS[map_name], MOVES, offsets=(0, 1, -1), rewards=rewards)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(map_name={self.map_name!r})"

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from ns_pz.envs.grid import Outcome, SlipGridFamily
+from ns_pz.envs.grid import GoalHoleGridFamily
 
 from ns_pz.params import Params, simplex
 
@@ -44,7 +44,7 @@ class FrozenLakeParams(Params):
     )
 
 
-class FrozenLakeFamily(SlipGridFamily):
+class FrozenLakeFamily(GoalHoleGridFamily):
     """FrozenLake dynamics under :class:`FrozenLakeParams`.
 
     Args:
@@ -71,25 +71,9 @@ class FrozenLakeFamily(SlipGridFamily):
                 f"reward_schedule={reward_schedule!r} must be (goal, hole, frozen) rewards"
             )
         self.reward_schedule = tuple(float(r) for r in reward_schedule)
-        bad = {c for row in desc for c in row} - set("SFHG")
-        if bad:
-            raise ValueError(f"desc has unknown cells {sorted(bad)}; allowed: S, F, H, G")
-        super().__init__(desc, MOVES, offsets=(0, 1, -1))
-
-    def cell_outcome(self, state: int, row: int, col: int) -> Outcome:
-        """Goal and holes end the episode; every cell pays its reward from the schedule."""
-        letter = self.desc[row][col]
         goal, hole, frozen = self.reward_schedule
-        reward = goal if letter == "G" else hole if letter == "H" else frozen
-        return row * self.ncol + col, reward, letter in "GH"
-
-    def is_terminal_state(self, state: int) -> bool:
-        """Goal and hole cells."""
-        return self.cell(state) in "GH"
-
-    def slip_param_of(self, state: int) -> str:
-        """One global slip vector."""
-        return "slip"
+        rewards = {"G": goal, "H": hole, "F": frozen}
+        super().__init__(desc, MOVES, offsets=(0, 1, -1), rewards=rewards)
 
     def __repr__(self) -> str:
         return f"FrozenLakeFamily(desc={list(self.desc)!r})"

@@ -130,6 +130,47 @@ class SlipGridFamily(EnvFamily):
         return TabularModel(self, theta, state, rng)
 
 
+class GoalHoleGridFamily(SlipGridFamily):
+    """A slip grid on a map of S (start), F (free), H (hole) and G (goal) cells.
+
+    Entering a goal or a hole ends the episode; entering any cell pays ``rewards[letter]``
+    (``rewards["F"]`` for the start cell too). One global slip vector, θ's ``slip`` field, unless
+    a subclass overrides :meth:`slip_param_of`.
+
+    Args:
+        desc: The map.
+        moves: ``(d_row, d_col)`` of each action.
+        offsets: Action offset of each slip outcome.
+        rewards: Reward for entering a cell of each letter ``"G"``, ``"H"`` and ``"F"``.
+    """
+
+    def __init__(
+        self,
+        desc: Sequence[str],
+        moves: Sequence[tuple[int, int]],
+        offsets: Sequence[int],
+        rewards: dict[str, float],
+    ) -> None:
+        bad = {c for row in desc for c in row} - set("SFHG")
+        if bad:
+            raise ValueError(f"desc has unknown cells {sorted(bad)}; allowed: S, F, H, G")
+        self.cell_rewards = {**rewards, "S": rewards["F"]}
+        super().__init__(desc, moves, offsets)
+
+    def cell_outcome(self, state: int, row: int, col: int) -> Outcome:
+        """Goals and holes end the episode; every cell pays its letter's reward."""
+        letter = self.desc[row][col]
+        return row * self.ncol + col, self.cell_rewards[letter], letter in "GH"
+
+    def is_terminal_state(self, state: int) -> bool:
+        """Goal and hole cells."""
+        return self.cell(state) in "GH"
+
+    def slip_param_of(self, state: int) -> str:
+        """One global slip vector."""
+        return "slip"
+
+
 def _pick(probs: Sequence[float], u: float) -> int:
     """Index of the first cumulative probability above ``u``.
 
