@@ -1,6 +1,6 @@
 """Cost of the NS-MDP core relative to the raw Gymnasium step, measured in one run.
 
-For CartPole and FrozenLake it times, per transition:
+For CartPole, FrozenLake and CliffWalking it times, per transition:
 
 * ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x);
 * ``view, change every step`` / ``view, single change``: the ns_pz Gymnasium view
@@ -108,18 +108,21 @@ def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) 
     return total / n
 
 
+ENVS = {  # name: (Gymnasium id, ns_pz id, the parameter changed, NS-Gym's initial slip)
+    "CartPole": ("CartPole-v1", "ns_pz/CartPole-v0", "masspole", None),
+    "FrozenLake": ("FrozenLake-v1", "ns_pz/FrozenLake-v0", "slip", SLIP),
+    "CliffWalking": ("CliffWalking-v1", "ns_pz/CliffWalking-v0", "slip", (1.0, 0.0, 0.0, 0.0)),
+}
+
+
 def cases(name: str) -> dict[str, Runner]:
-    """Every timed variant for one environment ("CartPole" or "FrozenLake")."""
-    if name == "CartPole":
-        base_id, ns_id, param = "CartPole-v1", "ns_pz/CartPole-v0", "masspole"
+    """Every timed variant for one environment of :data:`ENVS`."""
+    base_id, ns_id, param, _ = ENVS[name]
 
-        def rule(scheduler):  # noqa: ANN001, ANN202
-            return IncrementUpdate(scheduler, k=1e-4)
-    else:
-        base_id, ns_id, param = "FrozenLake-v1", "ns_pz/FrozenLake-v0", "slip"
-
-        def rule(scheduler):  # noqa: ANN001, ANN202
+    def rule(scheduler):  # noqa: ANN001, ANN202
+        if param == "slip":
             return DistributionDecrementUpdate(scheduler, k=1e-4)
+        return IncrementUpdate(scheduler, k=1e-4)
 
     every = ScriptedNature({param: rule(ContinuousScheduler(start=0))})
     once = ScriptedNature({param: rule(DiscreteScheduler({1}))})
@@ -142,16 +145,19 @@ def cases(name: str) -> dict[str, Runner]:
 def nsgym_cases(name: str) -> dict[str, Runner]:
     """NS-Gym 1.0.12 wrappers on the same schedules."""
 
+    base_id, _, _, slip = ENVS[name]
+
     def build(scheduler_fn: Callable[[], object]) -> gym.Env:
         if name == "CartPole":
             update = ng_updates.IncrementUpdate(scheduler_fn(), k=1e-4)
-            return ng_wrappers.NSClassicControlWrapper(
-                gym.make("CartPole-v1"), {"masspole": update}
-            )
+            return ng_wrappers.NSClassicControlWrapper(gym.make(base_id), {"masspole": update})
         update = ng_updates.DistributionDecrementUpdate(scheduler_fn(), k=1e-4)
-        return ng_wrappers.NSFrozenLakeWrapper(
-            gym.make("FrozenLake-v1"), {"P": update}, initial_prob_dist=list(SLIP)
+        wrapper = (
+            ng_wrappers.NSFrozenLakeWrapper
+            if name == "FrozenLake"
+            else ng_wrappers.NSCliffWalkingWrapper
         )
+        return wrapper(gym.make(base_id), {"P": update}, initial_prob_dist=list(slip))
 
     every = build(ng_schedulers.ContinuousScheduler)
     once = build(lambda: ng_schedulers.DiscreteScheduler({1}))
@@ -164,7 +170,7 @@ def nsgym_cases(name: str) -> dict[str, Runner]:
 def measure(name: str, steps: int, rounds: int) -> None:
     """Print µs per step and the median ratio to ``raw`` for every case of one env."""
     runners = cases(name)
-    num_actions = 2 if name == "CartPole" else 4
+    num_actions = int(gym.make(ENVS[name][0]).action_space.n)
     actions = np.random.default_rng(0).integers(0, num_actions, steps).tolist()
     seconds: dict[str, list[float]] = {case: [] for case in runners}
     for _ in range(rounds):
@@ -239,13 +245,16 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=20_000, help="steps per case and round")
     parser.add_argument("--rounds", type=int, default=9, help="rounds (ratios: median)")
     parser.add_argument("--smoke", action="store_true", help="tiny run that checks it works")
+    parser.add_argument(
+        "--envs", nargs="+", choices=sorted(ENVS), default=list(ENVS), help="environments to time"
+    )
     args = parser.parse_args()
     steps, rounds = (300, 2) if args.smoke else (args.steps, args.rounds)
     print(
         f"ns_pz {ns_pz.__version__}, gymnasium {gym.__version__}, "
         f"NS-Gym {'present' if ng_wrappers is not None else 'not installed (skipped)'}"
     )
-    for name in ("CartPole", "FrozenLake"):
+    for name in args.envs:
         measure(name, steps, rounds)
     print("\nPlanning")
     for name in ("CartPole", "FrozenLake"):
