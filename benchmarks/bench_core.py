@@ -72,12 +72,11 @@ def time_gym(env: gym.Env, actions: list[int], seed: int) -> float:
 def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) -> float:
     """Seconds per AEC cycle (nature, monitor, agent turns), resets and dead steps excluded."""
     theta_size = game.action_space(ns_pz.NATURE).shape[0]
-    nudge = np.zeros(
-        theta_size
-    )  # a tiny Δθ on the first flat element (mass-preserving for a vector)
-    nudge[0] = 1e-9
+    # A tiny valid Δθ: off the first flat element, spread over the others for a vector.
+    nudge = np.zeros(theta_size)
+    nudge[0] = -1e-9
     if "slip" in game.family.params_cls.names():
-        nudge[1:] = -1e-9 / (theta_size - 1)
+        nudge[1:] = 1e-9 / (theta_size - 1)
     quiet = {
         "env_change": np.zeros(len(game.family.params_cls.names()), np.int8),
         "delta_change": np.zeros(len(game.family.params_cls.names()), np.float32),
@@ -144,7 +143,6 @@ def cases(name: str) -> dict[str, Runner]:
 
 def nsgym_cases(name: str) -> dict[str, Runner]:
     """NS-Gym 1.0.12 wrappers on the same schedules."""
-
     base_id, _, _, slip = ENVS[name]
 
     def build(scheduler_fn: Callable[[], object]) -> gym.Env:
