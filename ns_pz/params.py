@@ -261,8 +261,8 @@ class Params:
 
     @staticmethod
     def layout_of(theta: Params) -> _Layout:
-        """Lookup tables of ``theta``'s class (built when its first instance was validated)."""
-        return Params._layouts[type(theta)]
+        """Lookup tables of ``theta``'s class (built on first use; an unpickled θ may be first)."""
+        return Params._layouts.get(type(theta)) or type(theta)._layout()
 
     @classmethod
     def specs(cls) -> tuple[ParamSpec, ...]:
@@ -323,7 +323,7 @@ class Params:
         """
         cls = type(self)
         new = object.__new__(cls)
-        for name in Params._layouts[cls].names:  # built when the first instance was validated
+        for name in Params.layout_of(self).names:
             object.__setattr__(new, name, changes[name] if name in changes else getattr(self, name))
         return new
 

@@ -155,3 +155,23 @@ def test_projection_refuses_what_has_no_nearest_value_and_survives_huge_inputs()
     assert slip.project("F", (-1e300, 1e300, 0.0)) == (0.0, 1.0, 0.0)
     with pytest.raises(ParamOutOfRange, match="is not finite"):
         slip.project("F", (math.inf, 0.0, 0.0))
+
+
+def test_theta_unpickled_in_a_fresh_process_works_on_the_change_path(tmp_path):
+    """A θ that arrives pickled (e.g. in a worker) can be projected and evolved at once."""
+    import pickle
+    import subprocess
+    import sys
+
+    path = tmp_path / "theta.pkl"
+    path.write_bytes(pickle.dumps(CartPoleParams(masspole=0.3)))
+    code = (
+        "import math, pickle, sys; from ns_pz.nature.constraints import admit, NatureConstraints;"
+        f" theta = pickle.loads(open({str(path)!r}, 'rb').read());"
+        " new, _ = admit(theta, {'masspole': 0.5}, NatureConstraints(), math.inf);"
+        " print(new.masspole)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, check=True
+    )
+    assert out.stdout.strip() == "0.5"
