@@ -159,13 +159,7 @@ class NSGame(AECEnv):
         if agent == NATURE:
             return self._build.nature(process.t, process.theta, process.budget_left)
         if agent == MONITOR:
-            return self._build.monitor(
-                process.last_state,
-                process.last_action,
-                process.last_reward,
-                process.state,
-                process.t,
-            )
+            return self._build.monitor(process)
         if agent == DECISION:
             flags, sizes = self._notification
             quiet = flags is process.no_change and sizes is process.no_change

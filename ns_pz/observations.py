@@ -19,13 +19,16 @@ Every call returns fresh arrays: users may keep or modify what they are given.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params
+
+if TYPE_CHECKING:
+    from ns_pz.process import NSProcess
 
 
 def agent_observation_space(family: EnvFamily) -> spaces.Dict:
@@ -119,16 +122,16 @@ class ObservationBuilder:
         """Nature's observation ``[t, θ flat..., budget_left]``."""
         return np.array([t, *theta.flat_values(), budget_left], np.float32)
 
-    def monitor(
-        self, last_state: Any, last_action: Any, last_reward: float, state: Any, t: int
-    ) -> dict:
-        """The monitor's observation of the last transition (a null action before the first)."""
+    def monitor(self, process: NSProcess) -> dict:
+        """The monitor's observation of the process's last transition (a null action before it)."""
         return {
-            "last_state": self._observe(last_state),
-            "last_action": self._null_action if last_action is None else last_action,
-            "last_reward": np.array((last_reward,), np.float32),
-            "state": self._observe(state),
-            "relative_time": np.array((t,), np.float32),
+            "last_state": self._observe(process.last_state),
+            "last_action": self._null_action
+            if process.last_action is None
+            else process.last_action,
+            "last_reward": np.array((process.last_reward,), np.float32),
+            "state": self._observe(process.state),
+            "relative_time": np.array((process.t,), np.float32),
         }
 
 

@@ -101,7 +101,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         else:
             observation = None
             if process.monitor.needs_observation:
-                observation = self._monitor_observation()
+                observation = self._build.monitor(process)
             flags, sizes = process.notification(observation)
         quiet = sizes is process.no_change and flags is process.no_change
         obs = self._build.agent(process.state, process.t, flags, sizes, quiet)
@@ -167,12 +167,6 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         if self._ground_truth_info:
             return {"theta": self._process.theta.as_dict()}
         return {}
-
-    def _monitor_observation(self) -> dict[str, Any]:
-        process = self._process
-        return self._build.monitor(
-            process.last_state, process.last_action, process.last_reward, process.state, process.t
-        )
 
     def __repr__(self) -> str:
         process = self._process

@@ -7,8 +7,10 @@ import pytest
 from ns_pz.envs.frozen_lake import FrozenLakeFamily
 
 import ns_pz
+from ns_pz import Monitor
 from ns_pz.testing import (
     check_game_api,
+    check_game_matches_view,
     check_ns_env,
     check_reproducible,
     check_theta_invariants,
@@ -66,3 +68,21 @@ def test_observation_outside_its_space_is_caught(register_temporary):
     with register_temporary("test/OutOfSpaceLake-v0", OutOfSpaceLake) as env_id:
         with pytest.raises(AssertionError):
             check_game_api(env_id)
+
+
+class LastRewardAlarm(Monitor):
+    """A detector-style monitor: raises every flag when the last reward was positive."""
+
+    def notify(self, observation, truth, memory, rng):
+        """Flags from the observation alone; sizes zero."""
+        alarm = int(observation["last_reward"][0] > 0)
+        count = 6
+        return (alarm,) * count, (0.0,) * count
+
+
+def test_a_monitor_that_reads_observations_runs_alike_in_game_and_view():
+    """Non-oracle monitors get the transition observation in both faces, with equal results."""
+    check_game_matches_view("ns_pz/CartPole-v0", monitor=LastRewardAlarm())
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", monitor=LastRewardAlarm(), notification="basic")
+    env.reset(seed=0)
+    assert env.step(1)[0]["env_change"].tolist() == [1] * 6  # CartPole pays +1 every step
