@@ -1,123 +1,30 @@
-"""The ``ns-pz`` command.
+"""The ``ns-pz`` command: run the paper's benchmark, report it, list what is available.
 
-``ns-pz demo`` evaluates a random agent and a planning agent on FrozenLake and CartPole under
-the NS-Gym paper's single and continuous changes, without and with notification, and prints
-the mean return ± standard error of each cell. ``ns-pz envs`` lists the registered
-environments and their parameters.
+    ns-pz bench run paper                 every shipped spec, quick size, local processes
+    ns-pz bench run frozenlake-single --size full --workers 2 --out results
+    ns-pz bench run paper --backend ray [--address auto]
+    ns-pz bench run SPEC --out DIR --resume   finish an interrupted run
+    ns-pz bench table DIR [--format latex]
+    ns-pz bench plot DIR
+    ns-pz bench list                      shipped specs
+    ns-pz envs                            registered envs, their θ, defaults and bounds
+
+Exit codes: 0 success; 1 some trials failed (their errors are in the results); 2 bad usage or a
+spec/results directory that cannot be used; 130 interrupted (finish with ``--resume``).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
-import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from pathlib import Path
 
-from ns_pz.envs.registry import make_gym, registered_envs, spec
-from ns_pz.nature import (
-    ContinuousScheduler,
-    DiscreteScheduler,
-    DistributionDecrementUpdate,
-    DistributionStepWiseUpdate,
-    IncrementUpdate,
-    ScriptedNature,
-    StepWiseUpdate,
-)
-from ns_pz.nature.policies import Nature
-from ns_pz.views import NSGymEnv
+from ns_pz.envs.registry import registered_envs, spec
 
-
-@dataclass(frozen=True)
-class Setting:
-    """One non-stationary setting of the demo: θ_0 and the change (first change at step 1)."""
-
-    env_id: str
-    name: str
-    params: dict
-    nature: Nature
-    max_episode_steps: int
-
-
-def demo_settings() -> list[Setting]:
-    """The paper's schedules (EXPERIMENTS.md §3.1) with the first change at step k=1."""
-    return [
-        Setting(
-            "ns_pz/FrozenLake-v0",
-            "single: p 0.7 -> 0.4",
-            {"slip": (0.7, 0.15, 0.15)},
-            ScriptedNature(
-                {"slip": DistributionStepWiseUpdate(DiscreteScheduler({1}), [(0.4, 0.3, 0.3)])}
-            ),
-            100,
-        ),
-        Setting(
-            "ns_pz/FrozenLake-v0",
-            "continuous: p 1 -> 0.4",
-            {"slip": (1.0, 0.0, 0.0)},
-            ScriptedNature(
-                {"slip": DistributionDecrementUpdate(ContinuousScheduler(start=1, end=3), k=0.2)}
-            ),
-            100,
-        ),
-        Setting(
-            "ns_pz/CartPole-v0",
-            "single: masspole 0.1 -> 1.0",
-            {},
-            ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({1}), [1.0])}),
-            300,
-        ),
-        Setting(
-            "ns_pz/CartPole-v0",
-            "continuous: masspole +0.1/step",
-            {},
-            ScriptedNature({"masspole": IncrementUpdate(ContinuousScheduler(start=1), k=0.1)}),
-            300,
-        ),
-    ]
-
-
-def run_demo(episodes: int, seed: int, out: Callable[[str], None] = print) -> list[tuple]:
-    """Evaluate every (setting, agent, level) cell and print the table; return its rows."""
-    from ns_pz.agents import (
-        RandomAgent,
-        RandomShooting,
-        SnapshotValueIteration,
-        evaluate,
-        mean_and_standard_error,
-    )
-
-    rows = []
-    out("| env | change | agent | notification | return (mean ± SE) | episodes | seconds |")
-    out("|---|---|---|---|---|---|---|")
-    for setting in demo_settings():
-        tabular = "FrozenLake" in setting.env_id
-        planner = SnapshotValueIteration(gamma=0.99) if tabular else RandomShooting(8, 30)
-        count = episodes if tabular else max(episodes // 10, 2)  # CartPole plans: 10x dearer
-        cells = [("random", RandomAgent(make_gym(setting.env_id).action_space), "none")]
-        cells += [(repr(planner), planner, level) for level in ("none", "detailed")]
-        for agent_name, agent, level in cells:
-
-            def make_env(setting: Setting = setting, level: str = level) -> NSGymEnv:
-                return make_gym(
-                    setting.env_id,
-                    params=setting.params,
-                    nature=setting.nature,
-                    notification=level,
-                    max_episode_steps=setting.max_episode_steps,
-                )
-
-            start = time.perf_counter()
-            results = evaluate(make_env, agent, range(seed, seed + count))
-            mean, error = mean_and_standard_error([r.episode_return for r in results])
-            seconds = time.perf_counter() - start
-            row = (setting.env_id, setting.name, agent_name, level, mean, error, count)
-            rows.append(row)
-            out(
-                f"| {setting.env_id} | {setting.name} | {agent_name} | {level} | "
-                f"{mean:.3f} ± {error:.3f} | {count} | {seconds:.1f} |"
-            )
-    return rows
+EXIT_OK, EXIT_FAILED_TRIALS, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+PAPER = "paper"
 
 
 def list_envs(out: Callable[[str], None] = print) -> None:
@@ -133,27 +40,145 @@ def list_envs(out: Callable[[str], None] = print) -> None:
             )
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``ns-pz``; returns the exit code."""
-    parser = argparse.ArgumentParser(prog="ns-pz", description=__doc__.splitlines()[0])
-    commands = parser.add_subparsers(dest="command", required=True)
-    demo = commands.add_parser("demo", help="evaluate agents on non-stationary envs, print a table")
-    demo.add_argument(
-        "--episodes",
-        type=int,
-        default=100,
-        help="episodes per FrozenLake cell (CartPole cells run a tenth, at least 2)",
+def _spec_names(names: Sequence[str]) -> list[str]:
+    from ns_pz.experiments import shipped_specs
+
+    result: list[str] = []
+    for name in names:
+        result += list(shipped_specs()) if name == PAPER else [name]
+    return result
+
+
+def _run_dirs(root: Path) -> list[Path]:
+    """``root`` if it is a results directory, else the results directories inside it."""
+    if (root / "spec.json").is_file():
+        return [root]
+    found = sorted(p.parent for p in root.glob("*/spec.json"))
+    if not found:
+        raise FileNotFoundError(f"{root} holds no results (no spec.json in it or below it)")
+    return found
+
+
+def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``bench run``: load every spec first (so a bad one stops the run before any trial)."""
+    from ns_pz.experiments import load_spec, make_backend, run_spec
+
+    specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
+    backend = make_backend(args.backend, args.workers, args.address)
+    root = Path(args.out)
+    failed = 0
+    for experiment in specs:
+        target = root / f"{experiment.name}-{experiment.size}"
+        summary = run_spec(experiment, target, backend, resume=args.resume, progress=sys.stderr)
+        failed += summary.failed
+        out(f"\n{_tables(target, 'markdown')}\n")
+        out(
+            f"({summary.ran} trials run, {summary.skipped} already done, {summary.failed} "
+            f"failed; results in {target}/results.csv)"
+        )
+    return EXIT_FAILED_TRIALS if failed else EXIT_OK
+
+
+def _tables(run_dir: Path, fmt: str) -> str:
+    from ns_pz.experiments.report import table
+    from ns_pz.experiments.store import ResultStore
+
+    store = ResultStore(run_dir)
+    record = store.spec_record()
+    title = f"{record['spec']['title']} [{record['name']}, {record['spec']['size']}]"
+    return table(store.rows(), title, fmt, spec=record["spec"])
+
+
+def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``bench table``: the tables of every run under DIR."""
+    for run_dir in _run_dirs(Path(args.dir)):
+        out(_tables(run_dir, args.format) + "\n")
+    return EXIT_OK
+
+
+def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``bench plot``: PNG figures into each run's ``plots/`` folder."""
+    from ns_pz.experiments.report import plot
+    from ns_pz.experiments.store import ResultStore
+
+    for run_dir in _run_dirs(Path(args.dir)):
+        store = ResultStore(run_dir)
+        record = store.spec_record()
+        for path in plot(store.rows(), record["spec"]["title"], run_dir / "plots", record["spec"]):
+            out(str(path))
+    return EXIT_OK
+
+
+def bench_list(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``bench list``: the shipped specs with their titles and agents."""
+    from ns_pz.experiments import load_spec, shipped_specs
+
+    for name, path in shipped_specs().items():
+        experiment = load_spec(path, "quick")
+        agents = ", ".join(a.label for a in experiment.agents)
+        out(f"{name:24s} {experiment.title}\n{'':24s} agents: {agents}")
+    out(f"\n{PAPER!r} runs all of them.")
+    return EXIT_OK
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="ns-pz",
+        description=__doc__.splitlines()[0],
+        epilog="Exit codes: 0 ok, 1 some trials failed, 2 usage error, 130 interrupted.",
     )
-    demo.add_argument("--seed", type=int, default=0, help="first seed (seeds are consecutive)")
+    commands = parser.add_subparsers(dest="command", required=True)
     commands.add_parser("envs", help="list registered environments and their parameters")
+    bench = commands.add_parser("bench", help="run and report the paper's benchmark")
+    actions = bench.add_subparsers(dest="action", required=True)
+
+    run = actions.add_parser("run", help="run specs (shipped names, files, or 'paper' for all)")
+    run.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
+    run.add_argument("--size", choices=("quick", "full"), default="quick")
+    run.add_argument("--backend", choices=("local", "ray"), default="local")
+    run.add_argument("--address", default=None, help="Ray cluster address (default: start Ray)")
+    run.add_argument(
+        "--workers",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="processes (local) or CPUs of a local Ray (default: all cores)",
+    )
+    run.add_argument("--out", default="ns-pz-results", help="results root (default: %(default)s)")
+    run.add_argument("--resume", action="store_true", help="finish a run in --out")
+
+    show = actions.add_parser("table", help="print the tables of a results directory")
+    show.add_argument("dir", help="a run directory, or a folder of them")
+    show.add_argument("--format", choices=("markdown", "latex"), default="markdown")
+
+    figures = actions.add_parser("plot", help="write PNG figures of a results directory")
+    figures.add_argument("dir", help="a run directory, or a folder of them")
+
+    actions.add_parser("list", help="list the shipped specs")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) -> int:
+    """Entry point of ``ns-pz``; returns the exit code."""
+    from ns_pz.experiments.spec import SpecError
+
+    parser = _parser()
     args = parser.parse_args(argv)
-    if args.command == "demo":
-        if args.episodes < 1:
-            parser.error(f"--episodes={args.episodes} must be >= 1")
-        run_demo(args.episodes, args.seed)
-    else:
-        list_envs()
-    return 0
+    if args.command == "envs":
+        list_envs(out)
+        return EXIT_OK
+    if args.action == "run" and args.workers < 1:
+        parser.error(f"--workers={args.workers} must be >= 1")
+    handler = {"run": bench_run, "table": bench_table, "plot": bench_plot, "list": bench_list}
+    try:
+        return handler[args.action](args, out)
+    except (SpecError, FileNotFoundError, RuntimeError) as error:
+        print(f"ns-pz: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(
+            "\nns-pz: interrupted; finished trials are saved, --resume continues", file=sys.stderr
+        )
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

@@ -1,0 +1,144 @@
+"""Where trials run: in this process, in a local process pool, or on a Ray cluster.
+
+A backend takes the spec and the trials still to run and yields their result rows as they
+finish, in any order. Trials are deterministic from their seeds, so every backend gives the same
+rows (wall times aside). The local pool is the default and needs no server; Ray is an optional
+extra (``pip install "ns_pz[ray]"``) and is imported only when chosen.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from abc import ABC, abstractmethod
+from collections.abc import Generator, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+
+from ns_pz.experiments.spec import ExperimentSpec
+from ns_pz.experiments.trials import Trial, error_row, run_trial
+
+BACKENDS = ("local", "ray")
+
+
+class Backend(ABC):
+    """Runs trials and yields ``(trial, row)`` as each finishes."""
+
+    @abstractmethod
+    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
+        """Run every trial; yield each one's row as soon as it is done."""
+
+
+class LocalBackend(Backend):
+    """A pool of ``workers`` processes on this machine (``workers=1``: in this process).
+
+    Workers are started with ``spawn`` (no state inherited from the parent). If a worker dies
+    (killed, out of memory, a crash in compiled code), its trials are recorded as errors and the
+    pool is restarted for the rest.
+    """
+
+    def __init__(self, workers: int) -> None:
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise ValueError(f"workers={workers!r} must be an integer >= 1")
+        self.workers = workers
+
+    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
+        """Run in-process for one worker, else in a process pool."""
+        if self.workers == 1:
+            for trial in trials:
+                yield trial, run_trial(spec, trial)
+            return
+        remaining = list(trials)
+        while remaining:
+            remaining = yield from self._pool_run(spec, remaining)
+
+    def _pool_run(
+        self, spec: ExperimentSpec, trials: list[Trial]
+    ) -> Generator[tuple[Trial, dict], None, list[Trial]]:
+        """Run until done or the pool breaks; return the trials that never started."""
+        context = multiprocessing.get_context("spawn")
+        pool = ProcessPoolExecutor(self.workers, mp_context=context)
+        pending: dict[Future[dict], Trial] = {}
+        queue = list(reversed(trials))
+        try:
+            while queue or pending:
+                while queue and len(pending) < 2 * self.workers:
+                    trial = queue.pop()
+                    pending[pool.submit(run_trial, spec, trial)] = trial
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    trial = pending.pop(future)
+                    try:
+                        row = future.result()
+                    except BrokenProcessPool:
+                        row = error_row(spec, trial, "a worker process died")
+                    yield trial, row
+                if any(isinstance(f.exception(), BrokenProcessPool) for f in done):
+                    for trial in pending.values():
+                        yield trial, error_row(spec, trial, "a worker process died")
+                    pending.clear()
+                    return list(reversed(queue))
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+        return []
+
+
+class RayBackend(Backend):
+    """Trials as Ray tasks, on a local Ray started here or on the cluster at ``address``.
+
+    Args:
+        workers: CPUs of the local Ray instance (ignored when joining a cluster).
+        address: A running cluster (``"auto"``, ``"ray://host:10001"``); ``None`` starts Ray on
+            this machine for the run.
+    """
+
+    def __init__(self, workers: int, address: str | None = None) -> None:
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise ValueError(f"workers={workers!r} must be an integer >= 1")
+        self.workers = workers
+        self.address = address
+
+    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
+        """Submit every trial, yield rows as tasks finish."""
+        try:
+            import ray
+        except ImportError:
+            raise RuntimeError(
+                'the ray backend needs Ray: pip install "ns_pz[ray]" (or use --backend local)'
+            ) from None
+        started_here = not ray.is_initialized()
+        if started_here:
+            if self.address is None:
+                ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False)
+            else:
+                ray.init(address=self.address, log_to_driver=False)
+        try:
+            remote = ray.remote(run_trial)
+            spec_ref = ray.put(spec)
+            pending = {remote.remote(spec_ref, trial): trial for trial in trials}
+            while pending:
+                done, _ = ray.wait(list(pending), num_returns=1)
+                for ref in done:
+                    trial = pending.pop(ref)
+                    try:
+                        row = ray.get(ref)
+                    except Exception as error:  # noqa: BLE001 - a lost worker or node
+                        row = error_row(spec, trial, f"Ray task failed: {error}")
+                    yield trial, row
+        finally:
+            if started_here:
+                ray.shutdown()
+
+
+def make_backend(name: str, workers: int, address: str | None = None) -> Backend:
+    """The backend called ``name``.
+
+    Raises:
+        ValueError: An unknown name, or an address given to the local backend.
+    """
+    if name == "local":
+        if address is not None:
+            raise ValueError(f"address={address!r} applies to the ray backend only")
+        return LocalBackend(workers)
+    if name == "ray":
+        return RayBackend(workers, address)
+    raise ValueError(f"backend={name!r}; allowed: {', '.join(BACKENDS)}")

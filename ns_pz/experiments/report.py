@@ -1,0 +1,236 @@
+"""Reports of a results directory: the paper's tables (Markdown, LaTeX) and figures (PNG).
+
+A table has one row per agent and one column per cell (setting × notification, ``WN`` = with
+detailed notification, ``WON`` = without); each entry is the mean episode return ± its standard
+error (ddof=1) over the cell's episodes. Where the exact optimum of a cell is known (tabular
+envs: finite-horizon value iteration knowing the schedule), an ``optimum`` row gives it and a
+second table gives each agent's regret to it (optimum − mean).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ns_pz.agents.evaluation import mean_and_standard_error
+from ns_pz.experiments.spec import LEVEL_LABELS
+
+#: ``optimum(setting, notification) -> value or None``.
+Optimum = Callable[[str, str], float | None]
+
+
+@dataclass(frozen=True)
+class Summary:
+    """One table entry."""
+
+    mean: float
+    error: float
+    episodes: int
+    failed: int
+
+
+def summarise(
+    rows: Sequence[Mapping[str, Any]], spec: Mapping[str, Any] | None = None
+) -> tuple[list[str], list[str], dict[tuple[str, str], Summary]]:
+    """Group rows by agent and cell.
+
+    Args:
+        rows: Result rows.
+        spec: The run's spec record (``spec.json``'s ``spec``): orders agents and columns as
+            the spec lists them; without it, they come in order of appearance.
+
+    Returns:
+        ``(agents, columns, summaries)``: agent labels, ``"setting notification"`` columns,
+        and the summary of each (agent, column) that has at least one row.
+    """
+    agents: list[str] = []
+    columns: list[str] = []
+    if spec is not None:
+        agents = [a["label"] for a in spec["agents"]]
+        columns = [
+            f"{setting} {LEVEL_LABELS[level]}"
+            for setting in spec["settings"]
+            for level in spec["notifications"]
+        ]
+    returns: dict[tuple[str, str], list[float]] = {}
+    failures: dict[tuple[str, str], int] = {}
+    for row in sorted(rows, key=lambda r: r["trial"]):
+        column = f"{row['setting']} {row['notification']}"
+        if row["agent"] not in agents:
+            agents.append(row["agent"])
+        if column not in columns:
+            columns.append(column)
+        key = (row["agent"], column)
+        returns.setdefault(key, [])
+        failures.setdefault(key, 0)
+        if row["status"] == "ok":
+            returns[key].append(float(row["return"]))
+        else:
+            failures[key] += 1
+    summaries = {}
+    for key, values in returns.items():
+        if values:
+            mean, error = mean_and_standard_error(values)
+            summaries[key] = Summary(mean, error, len(values), failures[key])
+        else:
+            summaries[key] = Summary(float("nan"), float("nan"), 0, failures[key])
+    return agents, columns, summaries
+
+
+def table(
+    rows: Sequence[Mapping[str, Any]],
+    title: str,
+    fmt: str = "markdown",
+    optimum: Optimum | None = None,
+    spec: Mapping[str, Any] | None = None,
+    digits: int = 3,
+) -> str:
+    """The results table (and, with ``optimum``, the regret table) as Markdown or LaTeX.
+
+    ``spec`` (the run's spec record) fixes the order of agents and columns.
+
+    Raises:
+        ValueError: An unknown ``fmt``.
+    """
+    if fmt not in ("markdown", "latex"):
+        raise ValueError(f"fmt={fmt!r}; allowed: 'markdown', 'latex'")
+    agents, columns, summaries = summarise(rows, spec)
+    optima = {}
+    if optimum is not None:
+        for column in columns:
+            setting, notification = column.rsplit(" ", 1)
+            optima[column] = optimum(setting, notification)
+    body = []
+    for agent in agents:
+        body.append([agent] + [_entry(summaries.get((agent, c)), digits) for c in columns])
+    known = any(v is not None for v in optima.values())
+    if known:
+        body.append(["optimum"] + [_number(optima.get(c), digits) for c in columns])
+    render = _markdown if fmt == "markdown" else _latex
+    parts = [render(title, ["agent", *columns], body)]
+    if known:
+        regret = []
+        for agent in agents:
+            cells = []
+            for column in columns:
+                summary, best = summaries.get((agent, column)), optima.get(column)
+                ok = summary is not None and summary.episodes and best is not None
+                cells.append(
+                    f"{best - summary.mean:.{digits}f}" if ok else "n/a"  # type: ignore[union-attr,operator]
+                )
+            regret.append([agent, *cells])
+        parts.append(render(f"{title}: regret to the optimum", ["agent", *columns], regret))
+    return "\n\n".join(parts)
+
+
+def _entry(summary: Summary | None, digits: int) -> str:
+    if summary is None:
+        return "n/a"
+    if not summary.episodes:
+        return f"failed ({summary.failed})"
+    text = f"{summary.mean:.{digits}f} ± {summary.error:.{digits}f}"
+    if summary.failed:
+        text += f" ({summary.failed} failed)"
+    return text
+
+
+def _number(value: float | None, digits: int) -> str:
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
+def _markdown(title: str, header: list[str], body: list[list[str]]) -> str:
+    lines = [f"**{title}**", "", "| " + " | ".join(header) + " |"]
+    lines.append("|" + "---|" * len(header))
+    lines += ["| " + " | ".join(row) + " |" for row in body]
+    return "\n".join(lines)
+
+
+def _latex(title: str, header: list[str], body: list[list[str]]) -> str:
+    def cell(text: str) -> str:
+        for char, escaped in (("_", r"\_"), ("%", r"\%"), ("&", r"\&"), ("#", r"\#")):
+            text = text.replace(char, escaped)
+        return text.replace("±", r"$\pm$")
+
+    lines = [
+        r"\begin{table}[t]",
+        r"\centering",
+        rf"\caption{{{cell(title)}}}",
+        r"\begin{tabular}{l" + "r" * (len(header) - 1) + "}",
+        r"\toprule",
+        " & ".join(cell(h) for h in header) + r" \\",
+        r"\midrule",
+    ]
+    lines += [" & ".join(cell(c) for c in row) + r" \\" for row in body]
+    lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
+    return "\n".join(lines)
+
+
+def plot(
+    rows: Sequence[Mapping[str, Any]],
+    title: str,
+    out_dir: str | Path,
+    spec: Mapping[str, Any] | None = None,
+) -> list[Path]:
+    """Two PNG figures: mean ± SE per agent and cell, and the distribution of returns.
+
+    Needs matplotlib (``pip install "ns_pz[plot]"``).
+
+    Raises:
+        RuntimeError: matplotlib is not installed.
+    """
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise RuntimeError('plots need matplotlib: pip install "ns_pz[plot]"') from None
+    agents, columns, summaries = summarise(rows, spec)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    width = 0.8 / max(len(agents), 1)
+    fig, ax = plt.subplots(figsize=(max(6.0, 1.4 * len(columns) + 2), 4))
+    for i, agent in enumerate(agents):
+        xs, means, errors = [], [], []
+        for j, column in enumerate(columns):
+            summary = summaries.get((agent, column))
+            if summary is not None and summary.episodes:
+                xs.append(j + (i - (len(agents) - 1) / 2) * width)
+                means.append(summary.mean)
+                errors.append(summary.error)
+        ax.bar(xs, means, width, yerr=errors, capsize=3, label=agent)
+    ax.set_xticks(range(len(columns)), columns, rotation=20, ha="right")
+    ax.set_ylabel("episode return (mean ± SE)")
+    ax.set_title(title)
+    ax.legend(fontsize="small")
+    fig.tight_layout()
+    means_path = out / "means.png"
+    fig.savefig(means_path, dpi=120)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(
+        1, len(columns), figsize=(max(6.0, 2.6 * len(columns)), 3.6), squeeze=False
+    )
+    for ax, column in zip(axes[0], columns, strict=True):
+        data = [
+            [
+                float(r["return"])
+                for r in rows
+                if r["status"] == "ok"
+                and r["agent"] == agent
+                and f"{r['setting']} {r['notification']}" == column
+            ]
+            for agent in agents
+        ]
+        ax.boxplot(data, tick_labels=agents, showmeans=True)
+        ax.set_title(column, fontsize="small")
+        ax.tick_params(axis="x", labelrotation=45, labelsize="small")
+    axes[0][0].set_ylabel("episode return")
+    fig.suptitle(f"{title}: return distributions")
+    fig.tight_layout()
+    returns_path = out / "returns.png"
+    fig.savefig(returns_path, dpi=120)
+    plt.close(fig)
+    return [means_path, returns_path]

@@ -1,0 +1,72 @@
+"""Run a spec: expand it into trials, skip what is done, run the rest, store every row."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from ns_pz.experiments.backends import Backend
+from ns_pz.experiments.progress import Progress
+from ns_pz.experiments.spec import ExperimentSpec
+from ns_pz.experiments.store import ResultStore
+from ns_pz.experiments.trials import expand
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What a run did."""
+
+    out: Path
+    total: int
+    skipped: int
+    ran: int
+    failed: int
+
+
+def run_spec(
+    spec: ExperimentSpec,
+    out: str | Path,
+    backend: Backend,
+    resume: bool = False,
+    progress: TextIO | None = None,
+    on_row: Callable[[dict], None] | None = None,
+) -> RunSummary:
+    """Run every trial of ``spec`` not yet finished in ``out``; write each row as it arrives.
+
+    Args:
+        spec: The experiment.
+        out: Its results directory (created if needed).
+        backend: Where trials run.
+        resume: Continue a run in ``out`` (without it, a directory holding results is refused).
+        progress: Where to draw a progress line (``None``: no progress line).
+        on_row: Called with each new row after it is stored.
+
+    Raises:
+        SpecError: ``out`` holds results of another spec, or of this one without ``resume``.
+    """
+    store = ResultStore(out)
+    store.prepare(spec, resume)
+    trials = expand(spec)
+    finished = store.finished()
+    todo = [trial for trial in trials if trial.key not in finished]
+    bar = None
+    if progress is not None:
+        label = f"{spec.name} ({spec.size})"
+        bar = Progress(len(trials), len(trials) - len(todo), label, progress)
+    failed = 0
+    try:
+        for _, row in backend.run(spec, todo):
+            store.write(row)
+            ok = row["status"] == "ok"
+            failed += not ok
+            if bar is not None:
+                bar.advance(ok)
+            if on_row is not None:
+                on_row(row)
+    finally:
+        store.write_csv()
+        if bar is not None:
+            bar.close()
+    return RunSummary(store.root, len(trials), len(trials) - len(todo), len(todo), failed)

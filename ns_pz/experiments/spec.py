@@ -1,0 +1,531 @@
+"""Experiment specs: a declarative, versioned description of one benchmark table.
+
+A spec is a TOML file::
+
+    version = 1
+    name = "frozenlake-single"
+    title = "FrozenLake 4x4, single change of the intended-move probability"
+    env = "ns_pz/FrozenLake-v0"
+    env_kwargs = {}                      # constructor arguments of the family
+    params = { slip = 0.7 }              # θ_0; others take their defaults
+    notifications = ["none", "detailed"]
+
+    [change]
+    kind = "single"                      # "single", "continuous" or "none"
+    param = "slip"
+    first_step = 1                       # k: the first transition that uses the new θ
+    to = [0.4, 0.6, 0.8]                 # single: one setting per value
+
+    [sizes.quick]
+    episodes = 30
+    horizon = 100
+
+    [[agents]]
+    name = "mcts"                        # a name of ns_pz.agents.catalog
+    label = "MCTS"                       # how tables call it (default: the name)
+    params = { c = 1.4142 }              # hyper-parameters for every size
+    quick = { iterations = 100 }         # ... overridden per size
+    notifications = ["none"]             # optional: the levels this agent runs at
+
+A scalar given for a probability vector means its first entry (the intended outcome) with the
+rest split equally over the other outcomes, the NS-Gym rule; a list gives the vector itself.
+A continuous change adds ``by`` to the parameter at every step from ``first_step`` on, ``steps``
+times (every step if absent), clipped to the parameter's bounds.
+
+:func:`load_spec` checks everything before any trial runs: unknown fields, envs, parameters,
+agents and hyper-parameters, values out of bounds, agents that need a model the env cannot give.
+Errors name the file, the field and what is allowed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from ns_pz.agents.catalog import agent_entry, is_tabular
+from ns_pz.envs.registry import make_gym, spec
+from ns_pz.monitor.notification import NotificationLevel
+from ns_pz.nature import (
+    ContinuousScheduler,
+    DiscreteScheduler,
+    DistributionDecrementUpdate,
+    DistributionIncrementUpdate,
+    DistributionStepWiseUpdate,
+    IncrementUpdate,
+    ScriptedNature,
+    StepWiseUpdate,
+)
+from ns_pz.nature.policies import Nature, StaticNature
+from ns_pz.nature.schedulers import Scheduler
+from ns_pz.params import SIMPLEX, Params
+from ns_pz.views import NSGymEnv
+
+SPEC_VERSION = 1
+SIZES = ("quick", "full")
+LEVEL_LABELS = {"none": "WON", "basic": "basic", "detailed": "WN"}
+
+_TOP_FIELDS = {
+    "version",
+    "name",
+    "title",
+    "env",
+    "env_kwargs",
+    "params",
+    "notifications",
+    "change",
+    "sizes",
+    "agents",
+}
+_CHANGE_FIELDS = {
+    "single": {"kind", "param", "first_step", "to"},
+    "continuous": {"kind", "param", "first_step", "by", "steps"},
+    "none": {"kind"},
+}
+_SIZE_FIELDS = {"episodes", "horizon", "first_seed"}
+_AGENT_FIELDS = {"name", "label", "params", "notifications", *SIZES}
+
+
+class SpecError(ValueError):
+    """A spec that cannot run; the message names the file and the field."""
+
+
+@dataclass(frozen=True)
+class Change:
+    """How θ changes during an episode.
+
+    Attributes:
+        kind: ``"single"``, ``"continuous"`` or ``"none"``.
+        param: The parameter that changes.
+        first_step: The first transition that uses a changed θ.
+        to: Single change: the value of each setting (scalar or vector, as in the file).
+        by: Continuous change: what is added at each step.
+        steps: Continuous change: how many steps change (``None``: every step).
+    """
+
+    kind: str
+    param: str = ""
+    first_step: int = 1
+    to: tuple[Any, ...] = ()
+    by: float = 0.0
+    steps: int | None = None
+
+
+@dataclass(frozen=True)
+class AgentSpec:
+    """One agent of a spec, with its hyper-parameters for the chosen size."""
+
+    name: str
+    label: str
+    hyper: Mapping[str, Any]
+    notifications: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One setting × notification level: what an agent is evaluated on."""
+
+    setting: str
+    notification: str
+    index: int
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """A loaded, checked spec at one size."""
+
+    name: str
+    title: str
+    source: str
+    size: str
+    env: str
+    env_kwargs: Mapping[str, Any]
+    params: Mapping[str, Any]
+    change: Change
+    notifications: tuple[str, ...]
+    agents: tuple[AgentSpec, ...]
+    episodes: int
+    horizon: int
+    first_seed: int
+
+    # -- identity ------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """Everything that determines the results (not where the spec was read from)."""
+        return {
+            "version": SPEC_VERSION,
+            "name": self.name,
+            "title": self.title,
+            "size": self.size,
+            "env": self.env,
+            "env_kwargs": dict(self.env_kwargs),
+            "params": dict(self.params),
+            "change": {
+                "kind": self.change.kind,
+                "param": self.change.param,
+                "first_step": self.change.first_step,
+                "to": list(self.change.to),
+                "by": self.change.by,
+                "steps": self.change.steps,
+            },
+            "notifications": list(self.notifications),
+            "settings": self.settings(),
+            "agents": [
+                {
+                    "name": a.name,
+                    "label": a.label,
+                    "hyper": dict(a.hyper),
+                    "notifications": list(a.notifications),
+                }
+                for a in self.agents
+            ],
+            "episodes": self.episodes,
+            "horizon": self.horizon,
+            "first_seed": self.first_seed,
+        }
+
+    def digest(self) -> str:
+        """A short hash of :meth:`to_dict`: equal digests mean the same experiment."""
+        text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    # -- what runs -------------------------------------------------------------------------
+    def settings(self) -> list[str]:
+        """Labels of the settings, in order (``"p=0.4"``, ``"masspole=1"``, ``"continuous"``)."""
+        if self.change.kind == "single":
+            short = "p" if self._is_vector() else self.change.param
+            return [f"{short}={_label_value(v)}" for v in self.change.to]
+        return [self.change.kind if self.change.kind == "continuous" else "stationary"]
+
+    def cells(self) -> list[Cell]:
+        """Every setting × notification level."""
+        return [
+            Cell(setting, level, index)
+            for index, setting in enumerate(self.settings())
+            for level in self.notifications
+        ]
+
+    def seeds(self) -> range:
+        """The episode seeds of every cell (the same for all agents: common random numbers)."""
+        return range(self.first_seed, self.first_seed + self.episodes)
+
+    def theta0(self) -> Params:
+        """θ_0 as a parameter set."""
+        return _theta(self.env, self.params)
+
+    def nature(self, setting_index: int) -> Nature:
+        """The scripted nature of one setting."""
+        change = self.change
+        params_cls = spec(self.env).family.params_cls
+        if change.kind == "none":
+            return StaticNature()
+        vector = self._is_vector()
+        if change.kind == "single":
+            value = _resolve_value(params_cls, change.param, change.to[setting_index])
+            scheduler: Scheduler = DiscreteScheduler({change.first_step})
+            if vector:
+                return ScriptedNature(
+                    {change.param: DistributionStepWiseUpdate(scheduler, [value])}
+                )
+            return ScriptedNature({change.param: StepWiseUpdate(scheduler, [value])})
+        end = None if change.steps is None else change.first_step + change.steps - 1
+        scheduler = ContinuousScheduler(start=change.first_step, end=end)
+        if vector:
+            rule = (
+                DistributionIncrementUpdate(scheduler, k=change.by)
+                if change.by >= 0
+                else DistributionDecrementUpdate(scheduler, k=-change.by)
+            )
+            return ScriptedNature({change.param: rule})
+        return ScriptedNature({change.param: IncrementUpdate(scheduler, k=change.by)})
+
+    def make_env(self, cell: Cell) -> NSGymEnv:
+        """The Gymnasium view of one cell, truncating at the horizon."""
+        return make_gym(
+            self.env,
+            params=self.theta0(),
+            nature=self.nature(cell.index),
+            notification=cell.notification,
+            max_episode_steps=self.horizon,
+            **self.env_kwargs,
+        )
+
+    def is_tabular(self) -> bool:
+        """Whether the env hands out explicit outcome tables."""
+        return callable(getattr(spec(self.env).family, "outcomes", None))
+
+    def _is_vector(self) -> bool:
+        params_cls = spec(self.env).family.params_cls
+        return params_cls.spec(self.change.param).kind == SIMPLEX
+
+
+def _label_value(value: Any) -> str:
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(f"{v:g}" for v in value) + "]"
+    return f"{value:g}"
+
+
+def _resolve_value(params_cls: type[Params], name: str, value: Any) -> Any:
+    """A spec value as the parameter's value: a scalar for a vector is its intended entry."""
+    param = params_cls.spec(name)
+    if param.kind != SIMPLEX or isinstance(value, (list, tuple)):
+        return tuple(value) if isinstance(value, list) else value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"{value!r} must be a number or a list of numbers")
+    rest = (1.0 - float(value)) / (param.size - 1)
+    return (float(value),) + (rest,) * (param.size - 1)
+
+
+def _theta(env_id: str, params: Mapping[str, Any]) -> Params:
+    params_cls = spec(env_id).family.params_cls
+    params_cls.check_names(params)
+    return params_cls.from_mapping(
+        {name: _resolve_value(params_cls, name, v) for name, v in params.items()}
+    )
+
+
+# -- loading ---------------------------------------------------------------------------------
+def shipped_specs() -> dict[str, Path]:
+    """The specs that come with ns_pz: name → file."""
+    folder = resources.files("ns_pz.experiments") / "specs"
+    found = {}
+    for entry in folder.iterdir():
+        if entry.name.endswith(".toml"):
+            found[entry.name.removesuffix(".toml")] = Path(str(entry))
+    return dict(sorted(found.items()))
+
+
+def resolve_spec_path(name_or_path: str) -> Path:
+    """A shipped spec's file by name, or the file at a path.
+
+    Raises:
+        SpecError: Neither a shipped spec nor an existing file.
+    """
+    shipped = shipped_specs()
+    if name_or_path in shipped:
+        return shipped[name_or_path]
+    path = Path(name_or_path)
+    if path.is_file():
+        return path
+    raise SpecError(
+        f"spec {name_or_path!r} is neither a shipped spec nor a file; shipped: {', '.join(shipped)}"
+    )
+
+
+def load_spec(name_or_path: str | Path, size: str = "quick") -> ExperimentSpec:
+    """Read and check a spec at ``size`` (``"quick"`` or ``"full"``).
+
+    Raises:
+        SpecError: Anything wrong, naming the file and field, before anything runs.
+    """
+    path = resolve_spec_path(str(name_or_path))
+    if size not in SIZES:
+        raise SpecError(f"size={size!r}; allowed: {', '.join(SIZES)}")
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise SpecError(f"{path}: not valid TOML: {error}") from None
+    return _Checker(path).spec(raw, size)
+
+
+class _Checker:
+    """Turns the raw TOML of one file into an :class:`ExperimentSpec`, or a :class:`SpecError`."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def fail(self, field: str, problem: str) -> SpecError:
+        return SpecError(f"{self.path}: {field}: {problem}")
+
+    def fields(self, where: str, table: Any, allowed: set[str], required: set[str]) -> None:
+        if not isinstance(table, Mapping):
+            raise self.fail(where, f"must be a table, got {table!r}")
+        for key in table:
+            if key not in allowed:
+                raise self.fail(
+                    f"{where}.{key}" if where else key,
+                    f"unknown field; allowed: {', '.join(sorted(allowed))}",
+                )
+        for key in sorted(required - set(table)):
+            raise self.fail(f"{where}.{key}" if where else key, "missing")
+
+    def integer(self, field: str, value: Any, low: int) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise self.fail(field, f"{value!r} must be an integer >= {low}")
+        return value
+
+    def spec(self, raw: Mapping[str, Any], size: str) -> ExperimentSpec:
+        required = {"version", "name", "env", "change", "sizes", "agents"}
+        self.fields("", raw, _TOP_FIELDS, required)
+        if raw["version"] != SPEC_VERSION:
+            raise self.fail(
+                "version", f"{raw['version']!r}; this ns_pz reads version {SPEC_VERSION}"
+            )
+        name = raw["name"]
+        if not isinstance(name, str) or not name:
+            raise self.fail("name", f"{name!r} must be a non-empty string")
+        env_id = self.env(raw["env"])
+        env_kwargs = raw.get("env_kwargs", {})
+        self.fields("env_kwargs", env_kwargs, set(env_kwargs), set())
+        params = raw.get("params", {})
+        self.fields("params", params, set(params), set())
+        try:
+            _theta(env_id, params)
+        except (TypeError, ValueError) as error:
+            raise self.fail("params", str(error)) from None
+        notifications = self.levels("notifications", raw.get("notifications", ["none"]))
+        change = self.change(raw["change"], env_id, params)
+        sizes = raw["sizes"]
+        self.fields("sizes", sizes, set(SIZES), set())
+        if size not in sizes:
+            raise self.fail("sizes", f"has no {size!r} size; it has: {', '.join(sizes)}")
+        self.fields(f"sizes.{size}", sizes[size], _SIZE_FIELDS, {"episodes", "horizon"})
+        episodes = self.integer(f"sizes.{size}.episodes", sizes[size]["episodes"], 1)
+        horizon = self.integer(f"sizes.{size}.horizon", sizes[size]["horizon"], 1)
+        first_seed = self.integer(f"sizes.{size}.first_seed", sizes[size].get("first_seed", 0), 0)
+        agents = raw["agents"]
+        if not isinstance(agents, list) or not agents:
+            raise self.fail("agents", "must be a non-empty array of tables ([[agents]])")
+        result = ExperimentSpec(
+            name=name,
+            title=str(raw.get("title", name)),
+            source=str(self.path),
+            size=size,
+            env=env_id,
+            env_kwargs=dict(env_kwargs),
+            params=dict(params),
+            change=change,
+            notifications=notifications,
+            agents=(),
+            episodes=episodes,
+            horizon=horizon,
+            first_seed=first_seed,
+        )
+        try:
+            probe_env = result.make_env(result.cells()[0])
+        except (TypeError, ValueError) as error:
+            raise self.fail("env_kwargs", str(error)) from None
+        checked = tuple(
+            self.agent(f"agents[{i}]", a, size, notifications, probe_env)
+            for i, a in enumerate(agents)
+        )
+        labels = [a.label for a in checked]
+        for label in labels:
+            if labels.count(label) > 1:
+                raise self.fail(
+                    "agents", f"two agents are labelled {label!r}; give each a distinct label"
+                )
+        return ExperimentSpec(**{**result.__dict__, "agents": checked})
+
+    def env(self, env_id: Any) -> str:
+        if not isinstance(env_id, str):
+            raise self.fail("env", f"{env_id!r} must be a registered env id (a string)")
+        try:
+            spec(env_id)
+        except ValueError as error:
+            raise self.fail("env", str(error)) from None
+        return env_id
+
+    def levels(self, field: str, levels: Any) -> tuple[str, ...]:
+        allowed = [level.value for level in NotificationLevel]
+        if not isinstance(levels, (list, tuple)) or not levels:
+            raise self.fail(field, f"{levels!r} must be a non-empty list of {allowed}")
+        for level in levels:
+            if level not in allowed:
+                raise self.fail(
+                    field, f"{level!r} is not a notification level; allowed: {', '.join(allowed)}"
+                )
+        if len(set(levels)) != len(levels):
+            raise self.fail(field, f"{levels!r} lists a level twice")
+        return tuple(levels)
+
+    def change(self, raw: Any, env_id: str, params: Mapping[str, Any]) -> Change:
+        if not isinstance(raw, Mapping) or raw.get("kind") not in _CHANGE_FIELDS:
+            kind = raw.get("kind") if isinstance(raw, Mapping) else raw
+            raise self.fail("change.kind", f"{kind!r}; allowed: {', '.join(_CHANGE_FIELDS)}")
+        kind = raw["kind"]
+        required = {"kind"} if kind == "none" else {"kind", "param", "first_step"}
+        required |= {"to"} if kind == "single" else {"by"} if kind == "continuous" else set()
+        self.fields("change", raw, _CHANGE_FIELDS[kind], required)
+        if kind == "none":
+            return Change("none")
+        params_cls = spec(env_id).family.params_cls
+        name = raw["param"]
+        try:
+            params_cls.check_names([name])
+        except ValueError as error:
+            raise self.fail("change.param", str(error)) from None
+        first_step = self.integer("change.first_step", raw["first_step"], 0)
+        if kind == "single":
+            values = raw["to"]
+            if not isinstance(values, list) or not values:
+                raise self.fail("change.to", f"{values!r} must be a non-empty list of values")
+            for i, value in enumerate(values):
+                try:
+                    _theta(env_id, {**params, name: value})
+                except (TypeError, ValueError) as error:
+                    raise self.fail(f"change.to[{i}]", str(error)) from None
+            return Change(kind, name, first_step, to=tuple(values))
+        by = raw["by"]
+        if isinstance(by, bool) or not isinstance(by, (int, float)) or not math.isfinite(by):
+            raise self.fail("change.by", f"{by!r} must be a finite number")
+        steps = raw.get("steps")
+        if steps is not None:
+            steps = self.integer("change.steps", steps, 1)
+        return Change(kind, name, first_step, by=float(by), steps=steps)
+
+    def agent(
+        self,
+        where: str,
+        raw: Any,
+        size: str,
+        levels: Sequence[str],
+        probe_env: NSGymEnv,
+    ) -> AgentSpec:
+        self.fields(where, raw, _AGENT_FIELDS, {"name"})
+        try:
+            entry = agent_entry(raw["name"])
+        except ValueError as error:
+            raise self.fail(f"{where}.name", str(error)) from None
+        hyper = dict(raw.get("params", {}))
+        self.fields(f"{where}.params", hyper, set(hyper), set())
+        sized = raw.get(size, {})
+        self.fields(f"{where}.{size}", sized, set(sized), set())
+        hyper.update(sized)
+        field = f"{where}.{size}" if sized else f"{where}.params"
+        try:
+            entry.check_names(hyper)
+        except ValueError as error:
+            raise self.fail(field, str(error)) from None
+        if entry.tabular_only and not is_tabular(probe_env):
+            raise self.fail(
+                f"{where}.name",
+                f"agent {entry.name!r} plans on an explicit outcome table, which "
+                f"{probe_env.family!r} cannot give; use it on a tabular env (FrozenLake, "
+                "CliffWalking, Bridge)",
+            )
+        agent_levels = self.levels(f"{where}.notifications", raw.get("notifications", levels))
+        for level in agent_levels:
+            if level not in levels:
+                raise self.fail(
+                    f"{where}.notifications",
+                    f"{level!r} is not among the spec's notifications {list(levels)}",
+                )
+            if level not in entry.levels:
+                raise self.fail(
+                    f"{where}.notifications",
+                    f"agent {entry.name!r} runs at {sorted(entry.levels)} only, not {level!r}",
+                )
+        try:
+            entry.make(probe_env, hyper)
+        except (TypeError, ValueError) as error:
+            raise self.fail(field, str(error)) from None
+        label = raw.get("label", entry.name)
+        if not isinstance(label, str) or not label:
+            raise self.fail(f"{where}.label", f"{label!r} must be a non-empty string")
+        return AgentSpec(entry.name, label, hyper, agent_levels)

@@ -1,0 +1,113 @@
+"""The results directory of one run: the spec it belongs to and one file per finished trial.
+
+Layout::
+
+    DIR/spec.json          the resolved spec and its digest (written first)
+    DIR/trials/KEY.json    one result row per trial, written atomically
+    DIR/results.csv        every row, one per episode, rebuilt from the trial files
+
+Every file is written to a temporary name and renamed, so a run killed at any moment (Ctrl-C,
+``kill -9``, a crashed machine) leaves complete trial files and at worst a stray temporary one,
+never a half-written result. Resuming skips the trials that have a file with status ``ok`` and
+re-runs the rest, errors included.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from ns_pz.experiments.spec import ExperimentSpec, SpecError
+from ns_pz.experiments.trials import COLUMNS
+
+
+class ResultStore:
+    """Reads and writes the results directory ``root``."""
+
+    def __init__(self, root: str | Path) -> None:
+        self.root = Path(root)
+        self.trials_dir = self.root / "trials"
+
+    # -- setup ---------------------------------------------------------------------------
+    def prepare(self, spec: ExperimentSpec, resume: bool) -> None:
+        """Make the directory ready for ``spec``.
+
+        Raises:
+            SpecError: The directory holds results of another spec, or results of this spec
+                while ``resume`` is off (nothing is ever mixed or silently overwritten).
+        """
+        meta = self.root / "spec.json"
+        if meta.exists():
+            stored = json.loads(meta.read_text())
+            if stored.get("digest") != spec.digest():
+                raise SpecError(
+                    f"{self.root} holds results of another spec ({stored.get('name')!r}, "
+                    f"size {stored.get('spec', {}).get('size')!r}, digest {stored.get('digest')}"
+                    f"); this is {spec.name!r} size {spec.size!r} digest {spec.digest()}. "
+                    "Use another --out directory."
+                )
+            if not resume and any(self.trials_dir.glob("*.json")):
+                raise SpecError(
+                    f"{self.root} already holds results of this spec; pass --resume to finish "
+                    "it, or use another --out directory"
+                )
+        self.trials_dir.mkdir(parents=True, exist_ok=True)
+        record = {"name": spec.name, "digest": spec.digest(), "spec": spec.to_dict()}
+        _write_atomic(meta, json.dumps(record, indent=2, sort_keys=True))
+
+    def spec_record(self) -> dict[str, Any]:
+        """What :meth:`prepare` stored.
+
+        Raises:
+            SpecError: ``root`` is not a results directory.
+        """
+        meta = self.root / "spec.json"
+        if not meta.is_file():
+            raise SpecError(f"{self.root} is not a results directory (no spec.json)")
+        return json.loads(meta.read_text())
+
+    # -- trials ----------------------------------------------------------------------------
+    def finished(self) -> set[str]:
+        """Keys of the trials that have a result with status ``ok``."""
+        return {row["trial"] for row in self.rows() if row["status"] == "ok"}
+
+    def write(self, row: dict[str, Any]) -> None:
+        """Store one trial's row (atomically)."""
+        _write_atomic(self.trials_dir / f"{row['trial']}.json", json.dumps(row, sort_keys=True))
+
+    def rows(self) -> list[dict[str, Any]]:
+        """Every stored row, ordered by trial key."""
+        rows = []
+        for path in sorted(self.trials_dir.glob("*.json")):
+            rows.append(json.loads(path.read_text()))
+        return rows
+
+    def write_csv(self) -> Path:
+        """Rebuild ``results.csv`` from the trial files; return its path."""
+        path = self.root / "results.csv"
+        rows = self.rows()
+        with tempfile.NamedTemporaryFile(
+            "w", dir=self.root, prefix=".results.", suffix=".tmp", delete=False, newline=""
+        ) as handle:
+            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            writer.writeheader()
+            for row in rows:
+                writer.writerow({column: row.get(column) for column in COLUMNS})
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(handle.name, path)
+        return path
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    with tempfile.NamedTemporaryFile(
+        "w", dir=path.parent, prefix=f".{path.name}.", suffix=".tmp", delete=False
+    ) as handle:
+        handle.write(text)
+        handle.flush()
+        os.fsync(handle.fileno())
+    os.replace(handle.name, path)

@@ -1,0 +1,34 @@
+"""Agents that fail on purpose, importable by worker processes as ``agents_for_tests:...``."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+from ns_pz.agents.baselines import RandomAgent
+
+
+class FailsOnCell(RandomAgent):
+    """A random agent that raises (or kills its process) when it stands on one cell."""
+
+    def __init__(self, action_space: Any, cell: int, hard: bool) -> None:
+        super().__init__(action_space)
+        self.cell, self.hard = cell, hard
+
+    def act(self, observation: dict[str, Any], model: Any = None) -> int:
+        """Random, except on :attr:`cell`."""
+        if int(observation["state"]) == self.cell:
+            if self.hard:
+                os._exit(3)  # a crash no Python handler sees, like a segfault
+            raise RuntimeError(f"boom on cell {self.cell}")
+        return super().act(observation, model)
+
+
+def raises_on_cell(env: Any, *, cell: int = 8) -> FailsOnCell:
+    """Raises RuntimeError on ``cell``."""
+    return FailsOnCell(env.family.action_space, cell, hard=False)
+
+
+def exits_on_cell(env: Any, *, cell: int = 8) -> FailsOnCell:
+    """Kills its own process on ``cell``."""
+    return FailsOnCell(env.family.action_space, cell, hard=True)

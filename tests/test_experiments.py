@@ -1,0 +1,378 @@
+"""Experiment specs, the runner and its backends, resuming, and the reports."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from ns_pz.cli import main
+from ns_pz.experiments import (
+    LocalBackend,
+    ResultStore,
+    SpecError,
+    expand,
+    load_spec,
+    run_spec,
+    shipped_specs,
+)
+from ns_pz.experiments.report import table
+
+TINY = """
+version = 1
+name = "tiny"
+title = "tiny FrozenLake"
+env = "ns_pz/FrozenLake-v0"
+params = { slip = 0.7 }
+notifications = ["detailed", "none"]
+
+[change]
+kind = "single"
+param = "slip"
+first_step = 1
+to = [0.4, 0.9]
+
+[sizes.quick]
+episodes = 4
+horizon = 30
+
+[sizes.full]
+episodes = 6
+horizon = 30
+
+[[agents]]
+name = "random"
+
+[[agents]]
+name = "value_iteration"
+label = "VI"
+quick = { gamma = 0.9 }
+"""
+
+
+def write_spec(folder: Path, text: str = TINY, name: str = "tiny.toml") -> Path:
+    """Write a spec file and return its path."""
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+def without_times(rows: list[dict]) -> list[dict]:
+    """Rows without their wall times, which are the only thing allowed to differ."""
+    return [{k: v for k, v in row.items() if k != "wall_time"} for row in rows]
+
+
+# -- specs -------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(shipped_specs()))
+@pytest.mark.parametrize("size", ["quick", "full"])
+def test_shipped_specs_load_at_both_sizes(name: str, size: str) -> None:
+    """Every shipped spec is valid at both sizes and expands into trials."""
+    experiment = load_spec(name, size)
+    assert experiment.size == size
+    trials = expand(experiment)
+    per_agent_cell = experiment.episodes
+    assert len(trials) % per_agent_cell == 0 and trials
+
+
+def test_spec_expands_cells_agents_and_seeds(tmp_path: Path) -> None:
+    """Settings × levels × agents × seeds, with sized hyper-parameters and θ as written."""
+    experiment = load_spec(write_spec(tmp_path), "quick")
+    assert experiment.settings() == ["p=0.4", "p=0.9"]
+    assert len(expand(experiment)) == 2 * 2 * 2 * 4
+    assert experiment.agents[1].hyper == {"gamma": 0.9}
+    assert experiment.theta0().slip == pytest.approx((0.7, 0.15, 0.15))
+    env = experiment.make_env(experiment.cells()[0])
+    env.reset(seed=0)
+    env.step(0)
+    env.step(0)
+    assert env.ground_truth().theta.slip == pytest.approx((0.4, 0.3, 0.3))
+    assert env.ground_truth().change_times == (1,)
+    assert load_spec(write_spec(tmp_path), "full").episodes == 6
+
+
+def test_continuous_change_adds_by_each_step_then_holds() -> None:
+    """``by`` for ``steps`` steps from ``first_step``: CliffWalking's p 1 -> 0.8 in ten steps."""
+    experiment = load_spec("cliffwalking-continuous")
+    env = experiment.make_env(experiment.cells()[0])
+    env.reset(seed=0)
+    seen = []
+    for _ in range(13):
+        env.step(0)  # UP: CliffWalking only ends at the goal
+        seen.append(round(env.ground_truth().theta.slip[0], 9))
+    assert seen == [1.0, 0.98, 0.96, 0.94, 0.92, 0.9, 0.88, 0.86, 0.84, 0.82, 0.8, 0.8, 0.8]
+    assert env.ground_truth().change_times == tuple(range(1, 11))
+
+
+def test_digest_changes_with_anything_that_changes_results(tmp_path: Path) -> None:
+    """Same spec, same digest; a different hyper-parameter or size, a different digest."""
+    base = load_spec(write_spec(tmp_path), "quick")
+    assert base.digest() == load_spec(write_spec(tmp_path), "quick").digest()
+    other = write_spec(tmp_path, TINY.replace("gamma = 0.9", "gamma = 0.8"), "other.toml")
+    assert load_spec(other, "quick").digest() != base.digest()
+    assert load_spec(write_spec(tmp_path), "full").digest() != base.digest()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        ('env = "ns_pz/FrozenLake-v0"', 'env = "ns_pz/FrozenLak-v0"', r"env: .*Did you mean"),
+        ('name = "random"', 'name = "randm"', r"agents\[0\]\.name: .*did you mean 'random'"),
+        ("quick = { gamma = 0.9 }", "quick = { gama = 0.9 }", r"agents\[1\]\.quick: .*'gama'"),
+        ("quick = { gamma = 0.9 }", "quick = { gamma = 1.5 }", r"agents\[1\]\.quick: .*gamma"),
+        ("params = { slip = 0.7 }", "params = { slipp = 0.7 }", r"params: .*slipp"),
+        ("params = { slip = 0.7 }", "params = { slip = 1.7 }", r"params: .*slip"),
+        ("to = [0.4, 0.9]", "to = [0.4, 1.9]", r"change\.to\[1\]: .*slip"),
+        ("to = [0.4, 0.9]", "to = [0.4, [0.5, 0.5, 0.5]]", r"change\.to\[1\]"),
+        ('kind = "single"', 'kind = "sudden"', r"change\.kind: 'sudden'; allowed"),
+        ("episodes = 4", "episodes = 0", r"sizes\.quick\.episodes: 0 must be an integer >= 1"),
+        (
+            "horizon = 30\n\n[sizes.full]",
+            "horizon = 30\nseeds = 3\n\n[sizes.full]",
+            r"sizes\.quick\.seeds: unknown field",
+        ),
+        ('title = "tiny FrozenLake"', 'title = "t"\ncolour = "red"', r"colour: unknown field"),
+        (
+            'notifications = ["detailed", "none"]',
+            'notifications = ["loud"]',
+            r"notifications: 'loud' is not a notification level",
+        ),
+        ("version = 1", "version = 7", r"version: 7; this ns_pz reads version 1"),
+    ],
+)
+def test_bad_specs_are_refused_naming_file_and_field(
+    tmp_path: Path, old: str, new: str, message: str
+) -> None:
+    """Each mistake is caught at load time with the file, the field and what is allowed."""
+    assert old in TINY
+    path = write_spec(tmp_path, TINY.replace(old, new, 1))
+    with pytest.raises(SpecError, match=message) as caught:
+        load_spec(path, "quick")
+    assert str(path) in str(caught.value)
+
+
+def test_a_tabular_planner_on_cartpole_is_refused(tmp_path: Path) -> None:
+    """A planning agent that needs an outcome table cannot be asked to plan CartPole."""
+    text = (
+        TINY.replace("ns_pz/FrozenLake-v0", "ns_pz/CartPole-v0")
+        .replace("params = { slip = 0.7 }", "")
+        .replace('param = "slip"', 'param = "masspole"')
+        .replace("to = [0.4, 0.9]", "to = [1.0]")
+    )
+    with pytest.raises(SpecError, match=r"agents\[1\]\.name: .*outcome table"):
+        load_spec(write_spec(tmp_path, text), "quick")
+
+
+def test_unknown_spec_name_lists_shipped(tmp_path: Path) -> None:
+    """A name that is neither shipped nor a file is refused with the shipped names."""
+    with pytest.raises(SpecError, match="frozenlake-single"):
+        load_spec("frozen-single")
+
+
+# -- running -------------------------------------------------------------------------------------
+def test_local_pool_gives_the_rows_of_a_serial_run(tmp_path: Path) -> None:
+    """Two worker processes or one: the same rows, bit for bit (wall times aside)."""
+    experiment = load_spec(write_spec(tmp_path), "quick")
+    serial = run_spec(experiment, tmp_path / "serial", LocalBackend(1))
+    pooled = run_spec(experiment, tmp_path / "pooled", LocalBackend(2))
+    assert serial.ran == pooled.ran == 32 and serial.failed == pooled.failed == 0
+    rows = ResultStore(tmp_path / "serial").rows()
+    assert without_times(rows) == without_times(ResultStore(tmp_path / "pooled").rows())
+    assert {r["status"] for r in rows} == {"ok"}
+    assert (tmp_path / "serial" / "results.csv").read_text().count("\n") == 33
+
+
+def test_ray_backend_gives_the_same_rows(tmp_path: Path) -> None:
+    """Ray started locally in the test gives exactly the local rows."""
+    pytest.importorskip("ray")
+    from ns_pz.experiments import RayBackend
+
+    experiment = load_spec(write_spec(tmp_path), "quick")
+    run_spec(experiment, tmp_path / "local", LocalBackend(1))
+    run_spec(experiment, tmp_path / "ray", RayBackend(2))
+    local = without_times(ResultStore(tmp_path / "local").rows())
+    assert local == without_times(ResultStore(tmp_path / "ray").rows())
+
+
+def test_interrupted_run_resumes_to_the_uninterrupted_rows(tmp_path: Path) -> None:
+    """Ctrl-C after a few trials, then --resume: exactly the rows of one clean run."""
+    experiment = load_spec(write_spec(tmp_path), "quick")
+    seen = []
+
+    def interrupt(row: dict) -> None:
+        seen.append(row)
+        if len(seen) == 5:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_spec(experiment, tmp_path / "cut", LocalBackend(1), on_row=interrupt)
+    assert len(ResultStore(tmp_path / "cut").rows()) == 5
+    with pytest.raises(SpecError, match="--resume"):
+        run_spec(experiment, tmp_path / "cut", LocalBackend(1))
+    summary = run_spec(experiment, tmp_path / "cut", LocalBackend(2), resume=True)
+    assert (summary.skipped, summary.ran) == (5, 27)
+    run_spec(experiment, tmp_path / "clean", LocalBackend(1))
+    resumed = without_times(ResultStore(tmp_path / "cut").rows())
+    assert resumed == without_times(ResultStore(tmp_path / "clean").rows())
+
+
+def test_killed_run_resumes_losing_and_duplicating_nothing(tmp_path: Path) -> None:
+    """A kill -9 of the whole run mid-way; the resumed directory equals a clean run's."""
+    text = TINY.replace("episodes = 4", "episodes = 40")
+    spec_path = write_spec(tmp_path, text)
+    out = tmp_path / "killed"
+    command = [sys.executable, "-m", "ns_pz.cli", "bench", "run", str(spec_path)]
+    command += ["--out", str(out), "--workers", "1"]
+    process = subprocess.Popen(
+        command,
+        cwd=tmp_path,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    trials = out / "tiny-quick" / "trials"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(list(trials.glob("*.json"))) < 20:
+        time.sleep(0.01)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    done_before = len(list(trials.glob("*.json")))
+    assert 20 <= done_before < 320, "the run finished before it could be killed"
+    experiment = load_spec(spec_path, "quick")
+    summary = run_spec(experiment, out / "tiny-quick", LocalBackend(1), resume=True)
+    assert summary.skipped == done_before and summary.ran == 320 - done_before
+    run_spec(experiment, tmp_path / "clean", LocalBackend(1))
+    resumed = without_times(ResultStore(out / "tiny-quick").rows())
+    assert resumed == without_times(ResultStore(tmp_path / "clean").rows())
+    assert len(resumed) == 320
+
+
+def test_results_of_another_spec_are_refused(tmp_path: Path) -> None:
+    """No silent mixing: a directory of another spec (or size) is refused, even on resume."""
+    run_spec(load_spec(write_spec(tmp_path), "quick"), tmp_path / "out", LocalBackend(1))
+    with pytest.raises(SpecError, match="another spec"):
+        run_spec(
+            load_spec(write_spec(tmp_path), "full"), tmp_path / "out", LocalBackend(1), resume=True
+        )
+
+
+def test_a_trial_that_raises_is_recorded_and_the_run_goes_on(tmp_path: Path) -> None:
+    """A user's agent (``module:builder``) failing on one cell: error rows, the rest finish."""
+    text = TINY.replace('name = "random"', 'name = "agents_for_tests:raises_on_cell"')
+    experiment = load_spec(write_spec(tmp_path, text), "quick")
+    summary = run_spec(experiment, tmp_path / "out", LocalBackend(1))
+    rows = ResultStore(tmp_path / "out").rows()
+    errors = [r for r in rows if r["status"] == "error"]
+    assert summary.ran == len(rows) == 32
+    assert 0 < summary.failed == len(errors) < 16
+    for row in errors:
+        assert "RuntimeError: boom on cell 8" in row["error"] and row["return"] is None
+    assert "failed)" in table(rows, "t")  # the table says how many episodes a cell lost
+
+
+def test_a_crashed_worker_is_recorded_and_the_pool_restarts(tmp_path: Path) -> None:
+    """A worker killed mid-trial: its trials become error rows, every other trial still runs."""
+    text = TINY.replace(
+        'name = "random"', 'name = "agents_for_tests:exits_on_cell"\nlabel = "flaky"'
+    )
+    experiment = load_spec(write_spec(tmp_path, text), "quick")
+    summary = run_spec(experiment, tmp_path / "out", LocalBackend(2))
+    rows = ResultStore(tmp_path / "out").rows()
+    assert summary.ran == len(rows) == 32
+    crashed = {r["trial"] for r in rows if r["status"] == "error"}
+    assert all("worker process died" in r["error"] for r in rows if r["trial"] in crashed)
+    # Every trial that reaches the cell (the raising twin shows which) must be among them ...
+    twin = TINY.replace(
+        'name = "random"', 'name = "agents_for_tests:raises_on_cell"\nlabel = "flaky"'
+    )
+    twin_spec = load_spec(write_spec(tmp_path, twin, "twin.toml"), "quick")
+    run_spec(twin_spec, tmp_path / "twin", LocalBackend(1))
+    twin_rows = ResultStore(tmp_path / "twin").rows()
+    assert {r["trial"] for r in twin_rows if r["status"] == "error"} <= crashed
+    # ... and every trial that finished is exactly what an undisturbed run gives.
+    expected = {r["trial"]: r for r in without_times(twin_rows)}
+    for row in without_times(rows):
+        if row["status"] == "ok":
+            assert {**row, "spec_hash": None} == {**expected[row["trial"]], "spec_hash": None}
+
+
+def test_unimportable_user_agent_is_refused(tmp_path: Path) -> None:
+    """``module:builder`` that does not exist: refused at load time, naming the field."""
+    text = TINY.replace('name = "random"', 'name = "no_such_module:build"')
+    with pytest.raises(SpecError, match=r"agents\[0\]\.name: .*cannot be imported"):
+        load_spec(write_spec(tmp_path, text), "quick")
+
+
+# -- reports -----------------------------------------------------------------------------------
+def test_table_of_random_agent_matches_a_hand_computation(tmp_path: Path) -> None:
+    """Mean ± SE (ddof=1) per cell, computed here by hand from the stored rows."""
+    experiment = load_spec(write_spec(tmp_path, TINY.replace("episodes = 4", "episodes = 12")))
+    run_spec(experiment, tmp_path / "out", LocalBackend(1))
+    store = ResultStore(tmp_path / "out")
+    rows = store.rows()
+    text = table(rows, "t", spec=store.spec_record()["spec"])
+    header = [line for line in text.splitlines() if line.startswith("| agent")][0]
+    columns = [c.strip() for c in header.strip("|").split("|")][1:]
+    assert columns == ["p=0.4 WN", "p=0.4 WON", "p=0.9 WN", "p=0.9 WON"]
+    random_line = [line for line in text.splitlines() if line.startswith("| random")][0]
+    entries = [c.strip() for c in random_line.strip("|").split("|")][1:]
+    for column, entry in zip(columns, entries, strict=True):
+        setting, level = column.split()
+        values = [
+            r["return"]
+            for r in rows
+            if r["agent"] == "random" and r["setting"] == setting and r["notification"] == level
+        ]
+        assert len(values) == 12
+        mean = sum(values) / len(values)
+        se = math.sqrt(sum((v - mean) ** 2 for v in values) / (len(values) - 1) / len(values))
+        assert entry == f"{mean:.3f} ± {se:.3f}"
+        assert math.isclose(statistics.stdev(values) / math.sqrt(12), se)
+
+
+def test_cli_run_table_plot_and_exit_codes(tmp_path: Path) -> None:
+    """The command line: a run prints its table; errors exit 2 with a message; --help works."""
+    lines: list[str] = []
+    spec_path = write_spec(tmp_path)
+    code = main(
+        ["bench", "run", str(spec_path), "--out", str(tmp_path / "o"), "--workers", "1"],
+        out=lines.append,
+    )
+    assert code == 0
+    assert any("| VI |" in line for line in lines)
+    lines.clear()
+    assert main(["bench", "table", str(tmp_path / "o"), "--format", "latex"], lines.append) == 0
+    assert r"\begin{tabular}" in lines[0]
+    pytest.importorskip("matplotlib")
+    assert main(["bench", "plot", str(tmp_path / "o")], lines.append) == 0
+    assert (tmp_path / "o" / "tiny-quick" / "plots" / "means.png").stat().st_size > 1000
+    assert main(["bench", "run", "no-such-spec"], lines.append) == 2
+    assert main(["bench", "table", str(tmp_path / "nothing")], lines.append) == 2
+    with pytest.raises(SystemExit) as exited:
+        main(["bench", "run", "--help"])
+    assert exited.value.code == 0
+
+
+def test_bench_list_names_every_shipped_spec() -> None:
+    """``bench list`` shows each shipped spec."""
+    lines: list[str] = []
+    assert main(["bench", "list"], lines.append) == 0
+    text = "\n".join(lines)
+    for name in shipped_specs():
+        assert name in text
+
+
+def test_spec_record_is_json(tmp_path: Path) -> None:
+    """spec.json holds the digest and the resolved spec."""
+    experiment = load_spec(write_spec(tmp_path))
+    run_spec(experiment, tmp_path / "o", LocalBackend(1))
+    record = json.loads((tmp_path / "o" / "spec.json").read_text())
+    assert record["digest"] == experiment.digest()
+    assert record["spec"]["settings"] == ["p=0.4", "p=0.9"]
