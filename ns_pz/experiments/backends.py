@@ -61,21 +61,26 @@ class LocalBackend(Backend):
         queue = list(reversed(trials))
         try:
             while queue or pending:
-                while queue and len(pending) < 2 * self.workers:
-                    trial = queue.pop()
-                    pending[pool.submit(run_trial, spec, trial)] = trial
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                broken = False
+                while queue and len(pending) < 2 * self.workers and not broken:
+                    try:
+                        pending[pool.submit(run_trial, spec, queue[-1])] = queue[-1]
+                        queue.pop()
+                    except BrokenProcessPool:
+                        broken = True
+                done, _ = wait(pending, return_when=FIRST_COMPLETED) if pending else (set(), set())
                 for future in done:
                     trial = pending.pop(future)
                     try:
                         row = future.result()
                     except BrokenProcessPool:
+                        broken = True
                         row = error_row(spec, trial, "a worker process died")
                     yield trial, row
-                if any(isinstance(f.exception(), BrokenProcessPool) for f in done):
+                if broken:
+                    # Which pending trial killed the pool cannot be known: all are recorded.
                     for trial in pending.values():
                         yield trial, error_row(spec, trial, "a worker process died")
-                    pending.clear()
                     return list(reversed(queue))
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
