@@ -6,6 +6,7 @@
     ns-pz bench run SPEC --out DIR --resume   finish an interrupted run
     ns-pz bench table DIR [--format latex]
     ns-pz bench plot DIR
+    ns-pz bench estimate paper --size full    time a few seeds per cell, project the run
     ns-pz bench list                      shipped specs
     ns-pz envs                            registered envs, their θ, defaults and bounds
 
@@ -109,6 +110,30 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     return EXIT_OK
 
 
+def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``bench estimate``: time a few seeds of every cell, project the whole run."""
+    from ns_pz.experiments import load_spec
+    from ns_pz.experiments.runner import estimate
+
+    specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
+    grand = 0.0
+    out("| spec | setting | notification | agent | s/trial | trials | projected s (1 core) |")
+    out("|---|---|---|---|---|---|---|")
+    for experiment in specs:
+        for cost in estimate(experiment, args.samples):
+            grand += cost.total_seconds
+            out(
+                f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} | "
+                f"{cost.seconds_per_trial:.3f} | {cost.trials} | {cost.total_seconds:.0f} |"
+            )
+    hours = grand / 3600 / args.workers
+    out(
+        f"\nprojected wall time on {args.workers} worker(s): {grand / args.workers:.0f} s "
+        f"({hours:.2f} h), from {args.samples} sampled seed(s) per cell"
+    )
+    return EXIT_OK
+
+
 def bench_list(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench list``: the shipped specs with their titles and agents."""
     from ns_pz.experiments import load_spec, shipped_specs
@@ -153,6 +178,14 @@ def _parser() -> argparse.ArgumentParser:
     figures = actions.add_parser("plot", help="write PNG figures of a results directory")
     figures.add_argument("dir", help="a run directory, or a folder of them")
 
+    cost = actions.add_parser(
+        "estimate", help="time a few seeds of every cell and project the run's wall time"
+    )
+    cost.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
+    cost.add_argument("--size", choices=("quick", "full"), default="full")
+    cost.add_argument("--samples", type=int, default=2, help="seeds timed per cell")
+    cost.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="to project for")
+
     actions.add_parser("list", help="list the shipped specs")
     return parser
 
@@ -166,9 +199,17 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
     if args.command == "envs":
         list_envs(out)
         return EXIT_OK
-    if args.action == "run" and args.workers < 1:
+    if args.action in ("run", "estimate") and args.workers < 1:
         parser.error(f"--workers={args.workers} must be >= 1")
-    handler = {"run": bench_run, "table": bench_table, "plot": bench_plot, "list": bench_list}
+    if args.action == "estimate" and args.samples < 1:
+        parser.error(f"--samples={args.samples} must be >= 1")
+    handler = {
+        "run": bench_run,
+        "table": bench_table,
+        "plot": bench_plot,
+        "list": bench_list,
+        "estimate": bench_estimate,
+    }
     try:
         return handler[args.action](args, out)
     except (SpecError, FileNotFoundError, RuntimeError) as error:

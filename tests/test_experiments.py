@@ -376,3 +376,22 @@ def test_spec_record_is_json(tmp_path: Path) -> None:
     record = json.loads((tmp_path / "o" / "spec.json").read_text())
     assert record["digest"] == experiment.digest()
     assert record["spec"]["settings"] == ["p=0.4", "p=0.9"]
+
+
+def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
+    """One cost per agent × cell, projecting its full trial count; the CLI prints the total."""
+    from ns_pz.experiments.runner import estimate
+
+    experiment = load_spec(write_spec(tmp_path), "full")
+    costs = estimate(experiment, samples=1)
+    assert len(costs) == 2 * 2 * 2
+    assert all(c.trials == 6 and c.seconds_per_trial > 0 for c in costs)
+    lines: list[str] = []
+    spec_path = str(write_spec(tmp_path))
+    assert (
+        main(["bench", "estimate", spec_path, "--samples", "1", "--workers", "2"], lines.append)
+        == 0
+    )
+    assert "projected wall time on 2 worker(s)" in lines[-1]
+    with pytest.raises(ValueError, match="samples=0 must be an integer >= 1"):
+        estimate(experiment, samples=0)

@@ -9,9 +9,9 @@ from typing import TextIO
 
 from ns_pz.experiments.backends import Backend
 from ns_pz.experiments.progress import Progress
-from ns_pz.experiments.spec import ExperimentSpec
+from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
 from ns_pz.experiments.store import ResultStore
-from ns_pz.experiments.trials import expand
+from ns_pz.experiments.trials import expand, run_trial
 
 
 @dataclass(frozen=True)
@@ -70,3 +70,53 @@ def run_spec(
         if bar is not None:
             bar.close()
     return RunSummary(store.root, len(trials), len(trials) - len(todo), len(todo), failed)
+
+
+@dataclass(frozen=True)
+class CellCost:
+    """Measured cost of one agent in one cell."""
+
+    setting: str
+    notification: str
+    agent: str
+    seconds_per_trial: float
+    trials: int
+
+    @property
+    def total_seconds(self) -> float:
+        """Projected time of all the cell's trials on one core."""
+        return self.seconds_per_trial * self.trials
+
+
+def estimate(spec: ExperimentSpec, samples: int = 2) -> list[CellCost]:
+    """Run the first ``samples`` seeds of every agent × cell here, serially, and project.
+
+    Raises:
+        ValueError: ``samples`` < 1.
+        RuntimeError: A sampled trial failed (its error is in the message).
+    """
+    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
+        raise ValueError(f"samples={samples!r} must be an integer >= 1")
+    groups: dict[tuple[int, str, str], list] = {}
+    for trial in expand(spec):
+        groups.setdefault((trial.cell.index, trial.cell.notification, trial.agent.label), [])
+        groups[(trial.cell.index, trial.cell.notification, trial.agent.label)].append(trial)
+    costs = []
+    for trials in groups.values():
+        times = []
+        for trial in trials[:samples]:
+            row = run_trial(spec, trial)
+            if row["status"] != "ok":
+                raise RuntimeError(f"trial {trial.key} failed: {row['error']}")
+            times.append(row["wall_time"])
+        first = trials[0]
+        costs.append(
+            CellCost(
+                first.cell.setting,
+                LEVEL_LABELS[first.cell.notification],
+                first.agent.label,
+                sum(times) / len(times),
+                len(trials),
+            )
+        )
+    return costs
