@@ -395,3 +395,13 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
     assert "projected wall time on 2 worker(s)" in lines[-1]
     with pytest.raises(ValueError, match="samples=0 must be an integer >= 1"):
         estimate(experiment, samples=0)
+
+
+@pytest.mark.parametrize("name", sorted(shipped_specs()))
+def test_spec_round_trips_through_its_record(name: str) -> None:
+    """A results directory's spec.json rebuilds the very same spec (same digest)."""
+    from ns_pz.experiments import ExperimentSpec
+
+    experiment = load_spec(name, "full")
+    record = json.loads(json.dumps(experiment.to_dict()))
+    assert ExperimentSpec.from_dict(record).digest() == experiment.digest()

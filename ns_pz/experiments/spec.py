@@ -189,6 +189,36 @@ class ExperimentSpec:
             "first_seed": self.first_seed,
         }
 
+    @classmethod
+    def from_dict(cls, record: Mapping[str, Any], source: str = "") -> ExperimentSpec:
+        """Rebuild a spec from :meth:`to_dict` (e.g. a results directory's ``spec.json``)."""
+        change = record["change"]
+        return cls(
+            name=record["name"],
+            title=record["title"],
+            source=source,
+            size=record["size"],
+            env=record["env"],
+            env_kwargs=dict(record["env_kwargs"]),
+            params=dict(record["params"]),
+            change=Change(
+                change["kind"],
+                change["param"],
+                change["first_step"],
+                tuple(change["to"]),
+                change["by"],
+                change["steps"],
+            ),
+            notifications=tuple(record["notifications"]),
+            agents=tuple(
+                AgentSpec(a["name"], a["label"], dict(a["hyper"]), tuple(a["notifications"]))
+                for a in record["agents"]
+            ),
+            episodes=record["episodes"],
+            horizon=record["horizon"],
+            first_seed=record["first_seed"],
+        )
+
     def digest(self) -> str:
         """A short hash of :meth:`to_dict`: equal digests mean the same experiment."""
         text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
