@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 from ns_pz.agents.base import Agent
+from ns_pz.agents.exact.induction import backward_induction, check_gamma
+from ns_pz.agents.exact.schedule import check_horizon
 
 from ns_pz.params import Params
 from ns_pz.planning import TabularOutcomes
@@ -42,17 +44,34 @@ def value_iteration(
 class SnapshotValueIteration(Agent):
     """Acts greedily on the value-iteration solution of the handed tabular model.
 
+    Without a ``horizon`` it solves the discounted infinite-horizon problem. With one it solves
+    the finite-horizon problem of ``horizon`` steps by backward induction (``gamma=1.0``
+    allowed: the undiscounted episode return) and plays step ``relative_time`` of it, so near
+    the end of an episode it acts for the steps that are left.
+
     Solutions are cached per (family, θ), the most recent ``cache_size`` of them, so replanning
     after a change costs one solve and acting otherwise costs a lookup.
+
+    Args:
+        gamma: Discount; in ``[0, 1)`` without a horizon, in ``[0, 1]`` with one.
+        cache_size: How many solutions to keep.
+        horizon: Episode length ``H`` the finite-horizon solution covers (``None``: discounted
+            infinite horizon).
     """
 
-    def __init__(self, gamma: float = 0.99, cache_size: int = 64) -> None:
-        if not 0.0 <= gamma < 1.0:
-            raise ValueError(f"gamma={gamma!r} must lie in [0, 1)")
+    def __init__(
+        self, gamma: float = 0.99, cache_size: int = 64, horizon: int | None = None
+    ) -> None:
+        if horizon is not None:
+            horizon = check_horizon(horizon)
+            gamma = check_gamma(gamma)
+        elif not 0.0 <= gamma < 1.0:
+            raise ValueError(f"gamma={gamma!r} must lie in [0, 1) (or [0, 1] with a horizon)")
         if cache_size < 1:
             raise ValueError(f"cache_size={cache_size!r} must be >= 1")
         self.gamma = gamma
         self.cache_size = cache_size
+        self.horizon = horizon
         self._policies: OrderedDict[tuple[object, Params], np.ndarray] = OrderedDict()
 
     @property
@@ -61,7 +80,12 @@ class SnapshotValueIteration(Agent):
         return True
 
     def act(self, observation: dict[str, Any], model: Any | None = None) -> int:
-        """The greedy action of the snapshot's optimal policy (ties: lowest index)."""
+        """The greedy action of the snapshot's optimal policy (ties: lowest index).
+
+        Raises:
+            ValueError: No tabular model was handed over, or (with a horizon) the episode has
+                run past it.
+        """
         if model is None or not hasattr(model, "outcomes"):
             raise ValueError(
                 "SnapshotValueIteration needs a tabular planning model (model.outcomes)"
@@ -69,17 +93,30 @@ class SnapshotValueIteration(Agent):
         key = (model.family, model.theta)
         policy = self._policies.get(key)
         if policy is None:
-            _, q_values = value_iteration(model.outcomes, self.gamma)
-            policy = q_values.argmax(axis=1)
+            policy = self._solve(model.outcomes)
             self._policies[key] = policy
             if len(self._policies) > self.cache_size:
                 self._policies.popitem(last=False)
         else:
             self._policies.move_to_end(key)
-        return int(policy[model.get_state()])
+        if self.horizon is None:
+            return int(policy[model.get_state()])
+        t = int(observation["relative_time"][0])
+        if t >= self.horizon:
+            raise ValueError(f"relative_time={t} is beyond horizon={self.horizon}")
+        return int(policy[t, model.get_state()])
+
+    def _solve(self, outcomes: TabularOutcomes) -> np.ndarray:
+        """``[num_states]`` (discounted) or ``[H, num_states]`` (finite horizon) actions."""
+        if self.horizon is None:
+            _, q_values = value_iteration(outcomes, self.gamma)
+            return q_values.argmax(axis=1)
+        return backward_induction([outcomes] * self.horizon, self.gamma).policy
 
     def __repr__(self) -> str:
-        return f"SnapshotValueIteration(gamma={self.gamma})"
+        if self.horizon is None:
+            return f"SnapshotValueIteration(gamma={self.gamma})"
+        return f"SnapshotValueIteration(gamma={self.gamma}, horizon={self.horizon})"
 
 
 class RandomShooting(Agent):
