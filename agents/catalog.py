@@ -86,6 +86,37 @@ def _value_iteration(env: NSGymEnv, *, gamma: float = 0.99) -> Agent:
     return SnapshotValueIteration(gamma=gamma)
 
 
+def _snapshot_vi(env: NSGymEnv) -> Agent:
+    horizon = env.max_episode_steps
+    if horizon is None:
+        raise ValueError(f"{env!r} has no time limit; snapshot_vi needs a finite horizon")
+    return SnapshotValueIteration(gamma=1.0, horizon=horizon)
+
+
+def _rats(
+    env: NSGymEnv,
+    *,
+    depth: int = 3,
+    gamma: float = 0.99,
+    lipschitz_p: float = 1.0,
+    lipschitz_r: float = 0.0,
+    tau: float = 1.0,
+    worst_case: str = "dirac_support",
+    terminal_value: str = "env",
+) -> Agent:
+    from ns_pz.agents.search.rats import rats_agent
+
+    return rats_agent(
+        depth=depth,
+        gamma=gamma,
+        lipschitz_p=lipschitz_p,
+        lipschitz_r=lipschitz_r,
+        tau=tau,
+        worst_case=worst_case,
+        terminal_value=terminal_value,
+    )
+
+
 def _random_shooting(
     env: NSGymEnv, *, num_rollouts: int = 8, depth: int = 30, gamma: float = 0.99
 ) -> Agent:
@@ -151,6 +182,23 @@ register_agent(
         "value_iteration",
         _value_iteration,
         "greedy on discounted value iteration of the handed snapshot (perfect snapshot planner)",
+        tabular_only=True,
+    )
+)
+register_agent(
+    AgentEntry(
+        "snapshot_vi",
+        _snapshot_vi,
+        "exact finite-horizon optimum of the handed snapshot, replanned each step: the perfect "
+        "planner (snapshot replanning with notification, the stale θ_0 policy without)",
+        tabular_only=True,
+    )
+)
+register_agent(
+    AgentEntry(
+        "rats",
+        _rats,
+        "risk-averse tree search against a worst-case nature (Lecarpentier & Rachelson 2019)",
         tabular_only=True,
     )
 )

@@ -81,13 +81,14 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
 
 
 def _tables(run_dir: Path, fmt: str) -> str:
+    from ns_pz.experiments.optimum import optimum_for
     from ns_pz.experiments.report import table
     from ns_pz.experiments.store import ResultStore
 
     store = ResultStore(run_dir)
     record = store.spec_record()
     title = f"{record['spec']['title']} [{record['name']}, {record['spec']['size']}]"
-    return table(store.rows(), title, fmt, spec=record["spec"])
+    return table(store.rows(), title, fmt, optimum_for(record["spec"]), record["spec"])
 
 
 def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:

@@ -119,6 +119,11 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         return self._process.level
 
     @property
+    def max_episode_steps(self) -> int | None:
+        """Transitions after which an episode is truncated (``None``: Gymnasium's TimeLimit)."""
+        return self._process.max_episode_steps
+
+    @property
     def base_params(self) -> Params:
         """θ_0, the parameters every episode starts from."""
         return self._process.theta0

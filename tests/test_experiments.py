@@ -405,3 +405,37 @@ def test_spec_round_trips_through_its_record(name: str) -> None:
     experiment = load_spec(name, "full")
     record = json.loads(json.dumps(experiment.to_dict()))
     assert ExperimentSpec.from_dict(record).digest() == experiment.digest()
+
+
+def test_tabular_tables_carry_the_optimum_and_no_agent_beats_it(tmp_path: Path) -> None:
+    """Every catalogued tabular agent's mean stays below the exact optimum, up to noise."""
+    from ns_pz.experiments.optimum import optimum_for
+    from ns_pz.experiments.report import summarise
+
+    text = TINY.replace("episodes = 4", "episodes = 100").replace("horizon = 30", "horizon = 100")
+    text += '\n[[agents]]\nname = "snapshot_vi"\n\n[[agents]]\nname = "rats"\n'
+    text += 'params = { terminal_value = "fl_hack" }\n'
+    experiment = load_spec(write_spec(tmp_path, text), "quick")
+    run_spec(experiment, tmp_path / "out", LocalBackend(2))
+    store = ResultStore(tmp_path / "out")
+    record = store.spec_record()["spec"]
+    optimum = optimum_for(record)
+    assert optimum is not None
+    agents, columns, summaries = summarise(store.rows(), record)
+    for column in columns:
+        setting, level = column.split()
+        best = optimum(setting, level)
+        assert best is not None and 0.0 < best <= 1.0
+        for agent in agents:
+            summary = summaries[(agent, column)]
+            # Returns are 0/1: the standard error of a mean of 100 is at most 0.05.
+            assert summary.mean <= best + 4 * 0.05, (agent, column, summary, best)
+    text_table = table(store.rows(), "t", optimum=optimum, spec=record)
+    assert "| optimum |" in text_table and "regret to the optimum" in text_table
+
+
+def test_non_tabular_tables_have_no_optimum_row() -> None:
+    """CartPole has no exact optimum: no row, no regret table."""
+    from ns_pz.experiments.optimum import optimum_for
+
+    assert optimum_for(load_spec("cartpole-single").to_dict()) is None
