@@ -728,3 +728,26 @@ def test_a_missing_family_is_reported_clearly():
             NSClassicControlWrapper(gym.make("Pendulum-v1"), {})
     else:
         pytest.skip("the pendulum family is installed")
+
+
+def test_cartpole_steps_equal_gymnasium_with_the_change_applied_first():
+    """NS-Gym's timing: a change fired at step t is set on the env before transition t.
+
+    Reference: Gymnasium's own CartPole, reset with the same seed, with masspole (and the two
+    quantities CartPole derives from it) set by hand before each step.
+    """
+    env = cartpole({"masspole": IncrementUpdate(PeriodicScheduler(2), k=0.2)})
+    raw = gym.make("CartPole-v1").unwrapped
+    obs, _ = env.reset(seed=7)
+    raw_obs, _ = raw.reset(seed=7)
+    assert np.array_equal(obs["state"], raw_obs)
+    masspole = 0.1
+    for t, action in enumerate([1, 0, 1, 1, 0, 0, 1, 0]):
+        if t % 2 == 0:
+            masspole += 0.2
+            raw.masspole = masspole
+            raw.total_mass = raw.masspole + raw.masscart
+            raw.polemass_length = raw.masspole * raw.length
+        obs, _, terminated, _, _ = env.step(action)
+        raw_obs, _, raw_terminated, _, _ = raw.step(action)
+        assert np.allclose(obs["state"], raw_obs, atol=1e-6) and terminated == raw_terminated

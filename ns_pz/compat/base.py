@@ -8,10 +8,11 @@ native ones. Inside a wrapper only the native rule runs, drawing from the wrappe
 generator; the compat object itself is never mutated by an episode.
 
 Random schedulers and update functions take NS-Gym's ``seed=``; it seeds their *standalone*
-calls (``sched(t)``, ``fn(param, t)``), which draw from ``self.rng``. A subclass written for
-NS-Gym (overriding ``_check`` or ``_update``) works too: in a wrapper it runs as a per-episode
-deep copy, whose ``rng`` (if it has one) is reseeded from the wrapper's generator at every
-episode start.
+calls (``sched(t)``, ``fn(param, t)``), which draw from ``self.rng``. Subclasses written for
+NS-Gym work too. An update function overriding ``_update`` runs in a wrapper as a per-episode
+deep copy, whose ``rng`` (if it has one) is reseeded from the wrapper's generator at the
+episode's first firing. A scheduler overriding ``_check`` is called as it is: randomness inside
+it is its own (use a native :class:`ns_pz.nature.CustomScheduler` to draw from the wrapper's).
 """
 
 from __future__ import annotations
