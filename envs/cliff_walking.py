@@ -37,23 +37,39 @@ class CliffWalkingFamily(SlipGridFamily):
     """CliffWalking dynamics under :class:`CliffWalkingParams`.
 
     Args:
-        goal_reward: Reward for entering the goal (Gymnasium: -1.0; the NS-Gym paper: 100.0).
+        goal_reward: Reward for entering the goal (Gymnasium: -1.0; the NS-Gym paper: 100.0;
+            NS-Gym's wrapper: 0.0).
+        cliff_reward: Reward for stepping into the cliff (Gymnasium: -100.0).
+        step_reward: Reward for entering any other cell (Gymnasium: -1.0).
+        terminal_cliff: Whether stepping into the cliff also ends the episode (the agent is
+            still put back on the start cell; NS-Gym's ``terminal_cliff``).
     """
 
     params_cls = CliffWalkingParams
 
-    def __init__(self, goal_reward: float = -1.0) -> None:
+    def __init__(
+        self,
+        goal_reward: float = -1.0,
+        cliff_reward: float = -100.0,
+        step_reward: float = -1.0,
+        terminal_cliff: bool = False,
+    ) -> None:
         self.goal_reward = check_real("goal_reward", goal_reward)
+        self.cliff_reward = check_real("cliff_reward", cliff_reward)
+        self.step_reward = check_real("step_reward", step_reward)
+        if not isinstance(terminal_cliff, bool):
+            raise TypeError(f"terminal_cliff={terminal_cliff!r} must be a bool")
+        self.terminal_cliff = terminal_cliff
         super().__init__(DESC, MOVES, offsets=(0, 1, -1, 2))
 
     def cell_outcome(self, state: int, row: int, col: int) -> Outcome:
-        """The cliff costs -100 and restarts; the goal pays ``goal_reward`` and ends."""
+        """The cliff costs ``cliff_reward`` and restarts; the goal pays ``goal_reward`` and ends."""
         letter = self.desc[row][col]
         if letter == "C":
-            return self.start_states[0], -100.0, False
+            return self.start_states[0], self.cliff_reward, self.terminal_cliff
         if letter == "G":
             return row * self.ncol + col, self.goal_reward, True
-        return row * self.ncol + col, -1.0, False
+        return row * self.ncol + col, self.step_reward, False
 
     def is_terminal_state(self, state: int) -> bool:
         """Only the goal ends an episode (the cliff cells are never occupied)."""
@@ -64,4 +80,8 @@ class CliffWalkingFamily(SlipGridFamily):
         return "slip"
 
     def __repr__(self) -> str:
-        return f"CliffWalkingFamily(goal_reward={self.goal_reward!r})"
+        return (
+            f"CliffWalkingFamily(goal_reward={self.goal_reward!r}, "
+            f"cliff_reward={self.cliff_reward!r}, step_reward={self.step_reward!r}, "
+            f"terminal_cliff={self.terminal_cliff!r})"
+        )

@@ -302,8 +302,11 @@ class NSProcess:
             raise ResetNeeded("planning_model() called before reset(); call reset() first")
         return self.family.planning_model(self.planning_theta(), self.state, self.planning_rng())
 
-    def stationary_copy(self) -> NSProcess:
-        """A process at the current state and time whose θ is frozen at :meth:`planning_theta`.
+    def stationary_copy(self, theta: Params | None = None) -> NSProcess:
+        """A process at the current state and time whose θ is frozen.
+
+        Args:
+            theta: The frozen θ; default :meth:`planning_theta`.
 
         Nature is static in the copy; it shares the family, monitor and level, and draws from a
         fresh planning generator. Its own ``reset`` starts new episodes under the frozen θ.
@@ -311,7 +314,7 @@ class NSProcess:
         if not self.started:
             raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
         twin = copy.copy(self)
-        theta = self.planning_theta()
+        theta = self.planning_theta() if theta is None else theta
         twin.theta0 = twin.theta = twin.last_theta = theta
         twin.nature = _STATIC
         twin.nature_memory = None
@@ -328,6 +331,35 @@ class NSProcess:
         twin.change_times = []
         twin.change_values = []
         twin.budget_used = 0.0
+        return twin
+
+    def continuing_copy(self, theta: Params | None = None) -> NSProcess:
+        """A process at the current state and time in which nature keeps acting.
+
+        Args:
+            theta: The θ the copy continues from (and starts its own episodes with); default
+                :meth:`planning_theta`.
+
+        Nature's episode memory and the budget used are copied, so the schedule carries on
+        where it is; the copy draws from fresh generators derived from the planning seed, so
+        using it never touches this process's streams, and two copies differ.
+        """
+        if not self.started:
+            raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
+        twin = copy.copy(self)
+        theta = self.planning_theta() if theta is None else theta
+        twin.theta0 = twin.theta = twin.last_theta = theta
+        twin.nature_memory = copy.deepcopy(self.nature_memory)
+        root = self._spawn_planning_seed()
+        nature_seq, monitor_seq, planning_seq = root.spawn(3)
+        twin.env_rng = np.random.Generator(np.random.PCG64(root))
+        twin.nature_rng = np.random.Generator(np.random.PCG64(nature_seq))
+        twin.monitor_rng = np.random.Generator(np.random.PCG64(monitor_seq))
+        twin._planning_seeds = planning_seq
+        twin.monitor_memory = self.monitor.initial_memory()
+        twin.last_change = None
+        twin.change_times = []
+        twin.change_values = []
         return twin
 
     def ground_truth(self) -> GroundTruth:

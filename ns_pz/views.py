@@ -162,10 +162,33 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         Raises:
             ResetNeeded: Called before the first reset.
         """
+        return self.branch()
+
+    def branch(self, *, theta: Params | None = None, keep_nature: bool = False) -> NSGymEnv:
+        """A copy of this env at the current state and time, on its own generators.
+
+        Args:
+            theta: The θ of the copy; default what :meth:`get_planning_env` uses (θ_0, or the
+                current θ at ``detailed``).
+            keep_nature: Let nature go on acting in the copy (from where its schedule is now)
+                instead of freezing θ.
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        process = self._process
         twin = copy.copy(self)
-        twin._process = self._process.stationary_copy()
+        if keep_nature:
+            twin._process = process.continuing_copy(theta)
+        else:
+            twin._process = process.stationary_copy(theta)
         twin._np_random = twin._process.env_rng
         return twin
+
+    @property
+    def process(self) -> NSProcess:
+        """The process this view drives (for adapters such as :mod:`ns_pz.compat`)."""
+        return self._process
 
     # -- internals --------------------------------------------------------------------------
     def _info(self) -> dict[str, Any]:

@@ -64,8 +64,8 @@ def test_random_scheduler_is_driven_by_the_generator_it_is_given():
         (lambda: ContinuousScheduler(start=5, end=2), ValueError, r"end=2 is before start=5"),
         (lambda: PeriodicScheduler(period=0, start=0), ValueError, r"period=0 must be >= 1"),
         (lambda: RandomScheduler(probability=1.5, start=0), ValueError, r"probability=1.5"),
-        (lambda: DiscreteScheduler(3), TypeError, r"event_times=3 must be an iterable"),
-        (lambda: DiscreteScheduler({-2}), ValueError, r"event_times element=-2"),
+        (lambda: DiscreteScheduler(3), TypeError, r"event_list=3 must be an iterable"),
+        (lambda: DiscreteScheduler({-2}), ValueError, r"event_list element=-2"),
     ],
 )
 def test_scheduler_arguments_are_checked(build, error, match):

@@ -87,6 +87,7 @@ class ScriptedNature(Nature):
                 )
         self.updates = dict(updates)
         self._entries = tuple(self.updates.items())
+        self._stateful = frozenset(name for name, fn in self._entries if fn.stateful)
 
     def bind(self, params_cls: type[Params]) -> None:
         """Check names exist and each rule matches its parameter's kind.
@@ -112,9 +113,16 @@ class ScriptedNature(Nature):
                     "distribution rule (use a scalar update function)"
                 )
 
-    def initial_memory(self) -> dict[str, int]:
-        """How often each parameter's rule has fired this episode (all zero)."""
-        return dict.fromkeys(self.updates, 0)
+    def initial_memory(self) -> dict[Any, Any]:
+        """Fresh episode memory: firing counts (all zero) and stateful rules' memories.
+
+        Counts are under the parameter's name, the memory of a stateful rule under
+        ``("memory", name)``.
+        """
+        memory: dict[Any, Any] = dict.fromkeys(self.updates, 0)
+        for name in self._stateful:
+            memory["memory", name] = self.updates[name].initial_memory()
+        return memory
 
     def propose(
         self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
@@ -127,7 +135,12 @@ class ScriptedNature(Nature):
                 memory[name] = count + 1
                 if proposal is None:
                     proposal = {}
-                proposal[name] = fn.update(getattr(theta, name), t, count, rng)  # type: ignore[arg-type]
+                value = getattr(theta, name)
+                if name in self._stateful:
+                    new = fn.update(value, t, count, rng, memory["memory", name])  # type: ignore[call-arg]
+                else:
+                    new = fn.update(value, t, count, rng)
+                proposal[name] = new
         return proposal
 
     def __repr__(self) -> str:

@@ -1,15 +1,20 @@
 """Update functions: *how* nature changes a parameter when its scheduler fires.
 
 An update function pairs a :class:`~ns_pz.nature.schedulers.Scheduler` with a rule
-``update(value, t, n, rng) -> new value``, where ``t`` is the step index and ``n`` the number of
-times this function has already fired in the episode. Update functions are immutable settings;
-the per-episode count lives in the nature that uses them, so one instance can serve many
-environments at once.
+``update(value, t, n, rng) -> new value``, where ``t`` is the step index (transitions since
+reset) and ``n`` the number of times this function has already fired in the episode. Update
+functions are immutable settings: the per-episode count lives in the nature that uses them, so
+one instance can serve many environments at once. A rule that must remember more than the count
+(a spent budget) declares it with :attr:`stateful` and :meth:`initial_memory`; nature then keeps
+that memory per episode too and passes it as a fifth argument.
 
-Scalar rules (:class:`UpdateFn`) act on a float, distribution rules
-(:class:`DistributionUpdateFn`) on a probability vector (a tuple). A rule may propose a value
-outside the parameter's bounds; the game projects every proposal onto the allowed set (see
-:mod:`ns_pz.nature.constraints`), so bounds never need repeating here.
+Scalar rules (:class:`UpdateFn`, in :mod:`ns_pz.nature.scalar_updates`) act on a float,
+distribution rules (:class:`DistributionUpdateFn`, in :mod:`ns_pz.nature.distribution_updates`)
+on a probability vector (a tuple of floats). Distribution rules always return a probability
+vector when given one. A scalar rule may propose a value outside the parameter's bounds; the game
+projects every proposal onto the allowed set (see :mod:`ns_pz.nature.constraints`), so bounds
+never need repeating here. Random rules draw only from the generator they are handed (nature's,
+seeded at reset).
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -27,7 +33,10 @@ Vector = tuple[float, ...]
 
 
 class _Update:
-    """Common part of scalar and distribution update functions: the scheduler."""
+    """Common part of scalar and distribution update functions: the scheduler and memory."""
+
+    stateful: ClassVar[bool] = False
+    """Whether :meth:`update` takes a per-episode memory as a fifth argument."""
 
     def __init__(self, scheduler: Scheduler) -> None:
         if not isinstance(scheduler, Scheduler):
@@ -36,6 +45,10 @@ class _Update:
                 "(ContinuousScheduler, DiscreteScheduler, PeriodicScheduler, RandomScheduler, ...)"
             )
         self.scheduler = scheduler
+
+    def initial_memory(self) -> Any:
+        """Fresh per-episode memory of a :attr:`stateful` rule (``None`` otherwise)."""
+        return None
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in vars(self).items())
@@ -61,145 +74,6 @@ class DistributionUpdateFn(_Update, ABC):
         """Raise ``ValueError`` if the rule cannot produce vectors of ``size`` elements."""
 
 
-class NoUpdate(UpdateFn):
-    """Leaves the value as it is (a placeholder that still consults its scheduler)."""
-
-    def update(self, value: float, t: int, n: int, rng: np.random.Generator) -> float:
-        """The unchanged value."""
-        return value
-
-
-class IncrementUpdate(UpdateFn):
-    """Adds ``k`` at each firing."""
-
-    def __init__(self, scheduler: Scheduler, k: float) -> None:
-        super().__init__(scheduler)
-        self.k = check_real("k", k)
-
-    def update(self, value: float, t: int, n: int, rng: np.random.Generator) -> float:
-        """``value + k``."""
-        return value + self.k
-
-
-class DecrementUpdate(UpdateFn):
-    """Subtracts ``k`` at each firing."""
-
-    def __init__(self, scheduler: Scheduler, k: float) -> None:
-        super().__init__(scheduler)
-        self.k = check_real("k", k)
-
-    def update(self, value: float, t: int, n: int, rng: np.random.Generator) -> float:
-        """``value - k``."""
-        return value - self.k
-
-
-class StepWiseUpdate(UpdateFn):
-    """Sets the value to ``param_list[n]`` at the n-th firing; no change once the list is spent."""
-
-    def __init__(self, scheduler: Scheduler, param_list: Sequence[float]) -> None:
-        super().__init__(scheduler)
-        if isinstance(param_list, (str, bytes)) or not isinstance(param_list, Sequence):
-            raise TypeError(f"param_list={param_list!r} must be a sequence of numbers")
-        self.param_list = tuple(check_real(f"param_list[{i}]", v) for i, v in enumerate(param_list))
-        if not self.param_list:
-            raise ValueError("param_list=[] is empty; give at least one value")
-
-    def update(self, value: float, t: int, n: int, rng: np.random.Generator) -> float:
-        """The n-th listed value, or ``value`` when the list is exhausted."""
-        return self.param_list[n] if n < len(self.param_list) else value
-
-
-class RandomWalk(UpdateFn):
-    """Adds a Gaussian step N(mu, sigma²) drawn from nature's generator at each firing."""
-
-    def __init__(self, scheduler: Scheduler, mu: float = 0.0, sigma: float = 1.0) -> None:
-        super().__init__(scheduler)
-        self.mu = check_real("mu", mu)
-        self.sigma = check_real("sigma", sigma)
-        if self.sigma < 0:
-            raise ValueError(f"sigma={sigma!r} must be >= 0")
-
-    def update(self, value: float, t: int, n: int, rng: np.random.Generator) -> float:
-        """``value + N(mu, sigma²)``."""
-        return value + self.mu + self.sigma * float(rng.standard_normal())
-
-
-class DistributionNoUpdate(DistributionUpdateFn):
-    """Leaves the vector as it is."""
-
-    def update(self, value: Vector, t: int, n: int, rng: np.random.Generator) -> Vector:
-        """The unchanged vector."""
-        return value
-
-
-class DistributionIncrementUpdate(DistributionUpdateFn):
-    """Raises the first element (the intended outcome) by ``k`` at each firing.
-
-    The first element is clipped to [0, 1] and the mass left, ``1 - p[0]``, is split equally
-    among the other outcomes (NS-Gym's rule; an uneven tail is evened out).
-    """
-
-    def __init__(self, scheduler: Scheduler, k: float) -> None:
-        super().__init__(scheduler)
-        self.k = check_real("k", k)
-
-    def check_size(self, param: str, size: int) -> None:
-        """The rule needs at least two outcomes to move mass between."""
-        if size < 2:
-            raise ValueError(
-                f"{type(self).__name__} needs a vector of >= 2 outcomes; {param!r} has {size}"
-            )
-
-    def update(self, value: Vector, t: int, n: int, rng: np.random.Generator) -> Vector:
-        """``p[0] + k`` (clipped), the rest shared equally."""
-        return shift_first(value, self.k)
-
-
-class DistributionDecrementUpdate(DistributionIncrementUpdate):
-    """Lowers the first element (the intended outcome) by ``k``; see the increment rule."""
-
-    def update(self, value: Vector, t: int, n: int, rng: np.random.Generator) -> Vector:
-        """``p[0] - k`` (clipped), the rest shared equally."""
-        return shift_first(value, -self.k)
-
-
-class DistributionStepWiseUpdate(DistributionUpdateFn):
-    """Sets the vector to ``update_values[n]`` at the n-th firing; no change once used up."""
-
-    def __init__(self, scheduler: Scheduler, update_values: Sequence[Sequence[float]]) -> None:
-        super().__init__(scheduler)
-        if isinstance(update_values, (str, bytes)) or not isinstance(update_values, Sequence):
-            raise TypeError(f"update_values={update_values!r} must be a sequence of vectors")
-        if not update_values:
-            raise ValueError("update_values=[] is empty; give at least one probability vector")
-        self.update_values = tuple(
-            check_distribution(f"update_values[{i}]", v) for i, v in enumerate(update_values)
-        )
-
-    def check_size(self, param: str, size: int) -> None:
-        """Every listed vector must have ``size`` elements."""
-        for i, vector in enumerate(self.update_values):
-            if len(vector) != size:
-                raise ValueError(
-                    f"update_values[{i}]={vector!r} has {len(vector)} elements but parameter "
-                    f"{param!r} has {size}"
-                )
-
-    def update(self, value: Vector, t: int, n: int, rng: np.random.Generator) -> Vector:
-        """The n-th listed vector, or ``value`` when the list is exhausted."""
-        return self.update_values[n] if n < len(self.update_values) else value
-
-
-def shift_first(value: Vector, k: float) -> Vector:
-    """Add ``k`` to the first element (clipped to [0, 1]) and share the rest equally."""
-    first = value[0] + k
-    if first < 0.0:
-        first = 0.0
-    elif first > 1.0:
-        first = 1.0
-    return (first,) + ((1.0 - first) / (len(value) - 1),) * (len(value) - 1)
-
-
 def check_real(name: str, value: object) -> float:
     """Validate a finite real number and return it as ``float``.
 
@@ -215,6 +89,34 @@ def check_real(name: str, value: object) -> float:
     return number
 
 
+def check_in(name: str, value: object, low: float, high: float) -> float:
+    """Validate a finite real number in ``[low, high]`` and return it as ``float``.
+
+    Raises:
+        TypeError: ``value`` is not a real number.
+        ValueError: ``value`` is not finite or outside ``[low, high]``.
+    """
+    number = check_real(name, value)
+    if not low <= number <= high:
+        raise ValueError(f"{name}={value!r} must lie in [{low}, {high}]")
+    return number
+
+
+def check_reals(name: str, values: object) -> tuple[float, ...]:
+    """Validate a non-empty sequence of finite real numbers and return it as a tuple.
+
+    Raises:
+        TypeError: ``values`` is not a sequence of real numbers.
+        ValueError: it is empty, or an element is not finite.
+    """
+    if isinstance(values, (str, bytes)) or not isinstance(values, (Sequence, np.ndarray)):
+        raise TypeError(f"{name}={values!r} must be a sequence of numbers")
+    checked = tuple(check_real(f"{name}[{i}]", v) for i, v in enumerate(values))
+    if not checked:
+        raise ValueError(f"{name}=[] is empty; give at least one value")
+    return checked
+
+
 def check_distribution(name: str, value: object) -> Vector:
     """Validate a probability vector (finite, non-negative, sums to 1 within 1e-8).
 
@@ -225,9 +127,28 @@ def check_distribution(name: str, value: object) -> Vector:
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
         raise TypeError(f"{name}={value!r} must be a sequence of probabilities")
     vector = tuple(check_real(f"{name}[{i}]", p) for i, p in enumerate(value))
+    if not vector:
+        raise ValueError(f"{name}={value!r} is empty; a probability vector needs an element")
     if any(p < 0.0 for p in vector):
         raise ValueError(f"{name}={value!r} has a negative element")
     total = math.fsum(vector)
     if abs(total - 1.0) > SIMPLEX_ATOL:
         raise ValueError(f"{name}={value!r} sums to {total!r}, not 1 (tolerance {SIMPLEX_ATOL})")
     return vector
+
+
+def check_distributions(name: str, values: object) -> tuple[Vector, ...]:
+    """Validate a non-empty sequence of probability vectors of one common length.
+
+    Raises:
+        TypeError: ``values`` is not a sequence of sequences.
+        ValueError: it is empty, a vector is invalid, or the lengths differ.
+    """
+    if isinstance(values, (str, bytes)) or not isinstance(values, (Sequence, np.ndarray)):
+        raise TypeError(f"{name}={values!r} must be a sequence of probability vectors")
+    if len(values) == 0:
+        raise ValueError(f"{name}=[] is empty; give at least one probability vector")
+    vectors = tuple(check_distribution(f"{name}[{i}]", v) for i, v in enumerate(values))
+    if len({len(v) for v in vectors}) != 1:
+        raise ValueError(f"{name}={values!r} mixes vectors of different lengths")
+    return vectors
