@@ -201,22 +201,20 @@ class MountainCarContinuousFamily(EnvFamily):
         # Gymnasium: force = min(max(action[0], -1.0), 1.0); force * power - 0.0025 * cos(3x).
         # A clipped force is a Python float (double arithmetic), an unclipped one float32.
         slope = theta.gravity * math.cos(f32(3 * position) if stored_32 else 3 * position)
-        if push < -1.0:
-            change = -theta.power - slope
-        elif push > 1.0:
-            change = theta.power - slope
-        else:
+        if -1.0 <= push <= 1.0:
             change = f32(f32(push * f32(theta.power)) - f32(slope))
+        else:
+            change = math.copysign(theta.power, push) - slope
+            if stored_32:  # a float32 velocity plus a Python float: the float is cast first
+                change = f32(change)
         if stored_32:
-            position, velocity, terminal = _float32_update(
+            next_state, terminal = _float32_update(
                 position, velocity, change, self.goal_velocity, self._goal_velocity_32
             )
         else:
-            position, velocity, terminal = _float64_update(
-                position, velocity, change, self.goal_velocity
-            )
+            next_state, terminal = _float64_update(position, velocity, change, self.goal_velocity)
         reward = (100.0 if terminal else 0.0) - math.pow(push, 2) * 0.1
-        return (f32(position), f32(velocity), True), reward, terminal
+        return next_state, reward, terminal
 
     def observe(self, state: ContinuousState) -> np.ndarray:
         """``[position, velocity]`` as float32."""
@@ -228,8 +226,11 @@ class MountainCarContinuousFamily(EnvFamily):
 
 def _float64_update(
     position: float, velocity: float, change: float, goal_velocity: float
-) -> tuple[float, float, bool]:
-    """Clips, wall and goal test from the float64 start state: plain double arithmetic."""
+) -> tuple[ContinuousState, bool]:
+    """Clips, wall and goal test from the float64 start state: plain double arithmetic.
+
+    Returns the next state (stored as float32, as Gymnasium stores it) and whether it is terminal.
+    """
     velocity = velocity + change
     if velocity > MAX_SPEED:
         velocity = MAX_SPEED
@@ -243,7 +244,7 @@ def _float64_update(
     if position == MIN_POSITION and velocity < 0:
         velocity = 0.0
     terminal = position >= CONTINUOUS_GOAL_POSITION and velocity >= goal_velocity
-    return position, velocity, terminal
+    return (f32(position), f32(velocity), True), terminal
 
 
 def _float32_update(
@@ -252,26 +253,34 @@ def _float32_update(
     change: float,
     goal_velocity: float,
     goal_velocity_32: float,
-) -> tuple[float, float, bool]:
+) -> tuple[ContinuousState, bool]:
     """Clips, wall and goal test from a float32 state, with NumPy's float32 semantics.
 
-    Sums of float32 values round to float32, and a float32 value compares with a Python float
-    cast to float32; a clipped value is the Python float limit itself and compares exactly.
+    ``change`` is a float32 value. Sums of float32 values round to float32, and a float32 value
+    compares with a Python float cast to float32; a clipped value is Gymnasium's Python float
+    limit, which compares exactly and is stored (and added) as its float32 rounding.
+
+    Returns the next state (float32 values) and whether it is terminal.
     """
-    velocity = f32(velocity + f32(change))
-    velocity_32 = True
+    velocity = f32(velocity + change)
+    velocity_32 = True  # False once velocity is one of Gymnasium's Python floats
     if velocity > _MAX_SPEED_32:
-        velocity, velocity_32 = MAX_SPEED, False
+        velocity, velocity_32 = _MAX_SPEED_32, False
     elif velocity < -_MAX_SPEED_32:
-        velocity, velocity_32 = -MAX_SPEED, False
-    position = f32(position + f32(velocity))
+        velocity, velocity_32 = -_MAX_SPEED_32, False
+    position = f32(position + velocity)
     if position > _MAX_POSITION_32:
-        position, at_wall, at_goal = MAX_POSITION, False, True
+        position, at_wall, at_goal = _MAX_POSITION_32, False, True
     elif position < _MIN_POSITION_32:
-        position, at_wall, at_goal = MIN_POSITION, True, False
+        position, at_wall, at_goal = _MIN_POSITION_32, True, False
     else:
         at_wall, at_goal = position == _MIN_POSITION_32, position >= _GOAL_32
     if at_wall and velocity < 0:
         velocity, velocity_32 = 0.0, False
-    terminal = at_goal and velocity >= (goal_velocity_32 if velocity_32 else goal_velocity)
-    return position, velocity, terminal
+    if not at_goal:
+        return (position, velocity, True), False
+    if velocity_32:
+        return (position, velocity, True), velocity >= goal_velocity_32
+    # Gymnasium compares its Python float 0.0 or ±0.07 with goal_velocity exactly.
+    exact = 0.0 if velocity == 0.0 else math.copysign(MAX_SPEED, velocity)
+    return (position, velocity, True), exact >= goal_velocity

@@ -318,6 +318,56 @@ def test_out_of_range_continuous_actions_are_clipped_as_gymnasium_clips_them():
     )
 
 
+def float32_neighbours(value: float, count: int) -> list[float]:
+    """The ``2 * count`` float32 values nearest to ``value``, as Python floats."""
+    bits = int(np.array(value, np.float32).view(np.int32))
+    return np.arange(bits - count, bits + count, dtype=np.int32).view(np.float32).tolist()
+
+
+@pytest.mark.parametrize(
+    ("goal_velocity", "start", "index", "limit"),
+    [
+        (0.0, (0.44, 0.01), 0, 0.45),  # positions around float32(0.45) < 0.45: the goal
+        (0.0, (-1.19, -0.01), 0, -1.2),  # positions around float32(-1.2): the wall
+        (0.02, (0.46, 0.02), 1, 0.02),  # velocities around float32(0.02) < 0.02: fast enough
+    ],
+    ids=["goal", "wall", "goal_velocity"],
+)
+def test_float32_comparisons_at_goal_and_wall_match_gymnasium(goal_velocity, start, index, limit):
+    """NumPy compares a float32 state with float32(limit), not with the limit itself.
+
+    Start states one float32 step apart are chosen so that the next position (or velocity)
+    runs through float32(limit), where float32 and float64 comparisons disagree; from each,
+    Gymnasium and the family must take the same step.
+    """
+    family = MountainCarContinuousFamily(goal_velocity)
+    theta = MountainCarContinuousParams()
+    action = np.zeros(1, np.float32)
+
+    def step_from(value: float) -> tuple[tuple[float, float, bool], float, bool]:
+        state = np.array(start, np.float32).tolist()  # a state after a step is float32
+        state[index] = value
+        return family.step((state[0], state[1], True), action, theta, None)
+
+    guess = start[index]
+    for _ in range(3):  # aim the start so that the step lands next to the limit
+        guess += limit - step_from(guess)[0][index]
+    reference = gym.make("MountainCarContinuous-v0", goal_velocity=goal_velocity).unwrapped
+    reference.reset(seed=0)
+    landed = []
+    for value in float32_neighbours(guess, 150):
+        state = np.array(start, np.float32).tolist()
+        state[index] = value
+        reference.state = np.array(state, np.float32)
+        expected, expected_reward, expected_terminal, _, _ = reference.step(action)
+        next_state, reward, terminal = step_from(value)
+        assert expected.tolist() == list(next_state[:2]), value
+        assert (reward, terminal) == (expected_reward, expected_terminal), value
+        landed.append(next_state[index])
+    limit_32 = float(np.float32(limit))
+    assert min(landed) <= limit_32 < max(landed), "the search must run through float32(limit)"
+
+
 def corner_params(params_cls: type) -> list[Any]:
     """θ at every combination of each field's lower and upper bound."""
     specs = params_cls.specs()
