@@ -36,7 +36,10 @@ def f32(x: float) -> float:
 
 
 def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
-    """``action`` as a new array of the space's dtype and shape; finite, possibly out of bounds.
+    """``action`` as an array of the space's dtype and shape; finite, possibly out of bounds.
+
+    An array of the right dtype is returned as it is (as ``np.asarray`` would), anything else
+    is converted.
 
     Args:
         space: The family's action space (a float Box).
@@ -45,12 +48,21 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
     Raises:
         ValueError: ``action`` is not numeric, has another shape, or holds NaN or infinity.
     """
+    if (  # the common case, checked cheaply
+        type(action) is np.ndarray
+        and action.dtype == space.dtype
+        and action.shape == space.shape
+        and action.size == 1
+        and math.isfinite(action.item())
+    ):
+        return action
+    clipping = f"low={space.low.tolist()}, high={space.high.tolist()}"
     try:
-        array = np.array(action, dtype=space.dtype)
+        array = np.asarray(action, dtype=space.dtype)
     except (TypeError, ValueError):
         raise ValueError(
             f"action={action!r} is not a numeric array; allowed: finite values of shape "
-            f"{space.shape} (clipped to [{space.low}, {space.high}])"
+            f"{space.shape} (clipped into {clipping})"
         ) from None
     if array.shape != space.shape:
         raise ValueError(
@@ -61,6 +73,6 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
     if not finite:
         raise ValueError(
             f"action={action!r} is not finite; allowed: finite values (out-of-range ones are "
-            f"clipped to [{space.low}, {space.high}])"
+            f"clipped into {clipping})"
         )
     return array
