@@ -491,3 +491,19 @@ def test_bad_constructor_arguments_are_refused(env_id, kwargs, error, message):
     """Constructor arguments are checked before anything runs; θ is not a constructor argument."""
     with pytest.raises(error, match=message):
         ns_pz.make_gym(env_id, **kwargs)
+
+
+def test_acrobot_wrap_subtracts_like_gymnasium_and_survives_huge_angles():
+    """Up to 1000 turns the wrap is Gymnasium's repeated ±2π; beyond, one remainder, in range."""
+    from ns_pz.envs.acrobot import _wrap
+
+    two_pi = math.pi - (-math.pi)
+    for angle in (3.5, -9.0, 250.0, -6000.0):
+        expected = angle
+        while expected > math.pi:
+            expected -= two_pi
+        while expected < -math.pi:
+            expected += two_pi
+        assert _wrap(angle) == expected
+    for angle in (1e5, -3e17, 1e300):
+        assert -math.pi <= _wrap(angle) <= math.pi
