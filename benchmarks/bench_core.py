@@ -1,6 +1,7 @@
 """Cost of the NS-MDP core relative to the raw Gymnasium step, measured in one run.
 
-For CartPole, FrozenLake and CliffWalking it times, per transition:
+For each environment of :data:`ENVS` (CartPole, FrozenLake, CliffWalking, MountainCar,
+MountainCarContinuous, Acrobot, Pendulum; ``--envs`` picks some) it times, per transition:
 
 * ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x);
 * ``view, change every step`` / ``view, single change``: the ns_pz Gymnasium view
@@ -25,6 +26,7 @@ import argparse
 import statistics
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
@@ -45,7 +47,7 @@ try:  # NS-Gym, for a side-by-side measurement when it is installed
 except ImportError:
     ng_wrappers = None
 
-Runner = Callable[[list[int]], float]
+Runner = Callable[[list], float]
 SLIP = (1 / 3, 1 / 3, 1 / 3)
 
 
@@ -107,21 +109,51 @@ def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) 
     return total / n
 
 
-ENVS = {  # name: (Gymnasium id, ns_pz id, the parameter changed, NS-Gym's initial slip)
-    "CartPole": ("CartPole-v1", "ns_pz/CartPole-v0", "masspole", None),
-    "FrozenLake": ("FrozenLake-v1", "ns_pz/FrozenLake-v0", "slip", SLIP),
-    "CliffWalking": ("CliffWalking-v1", "ns_pz/CliffWalking-v0", "slip", (1.0, 0.0, 0.0, 0.0)),
+@dataclass(frozen=True)
+class Bench:
+    """One timed environment: its Gymnasium and ns_pz ids and the θ field nature moves."""
+
+    base_id: str
+    ns_id: str
+    param: str
+    k: float = 1e-4
+    """Change per step (the nudge of IncrementUpdate / DistributionDecrementUpdate)."""
+    nsgym_param: str = ""
+    """The Gymnasium attribute NS-Gym's wrapper sets (scalar θ)."""
+    slip: tuple[float, ...] | None = None
+    """NS-Gym's initial slip vector (grid worlds)."""
+
+
+ENVS = {
+    "CartPole": Bench("CartPole-v1", "ns_pz/CartPole-v0", "masspole", nsgym_param="masspole"),
+    "FrozenLake": Bench("FrozenLake-v1", "ns_pz/FrozenLake-v0", "slip", slip=SLIP),
+    "CliffWalking": Bench(
+        "CliffWalking-v1", "ns_pz/CliffWalking-v0", "slip", slip=(1.0, 0.0, 0.0, 0.0)
+    ),
+    "MountainCar": Bench(
+        "MountainCar-v0", "ns_pz/MountainCar-v0", "gravity", k=1e-7, nsgym_param="gravity"
+    ),
+    "MountainCarContinuous": Bench(
+        "MountainCarContinuous-v0",
+        "ns_pz/MountainCarContinuous-v0",
+        "power",
+        k=1e-7,
+        nsgym_param="power",
+    ),
+    "Acrobot": Bench("Acrobot-v1", "ns_pz/Acrobot-v0", "link_mass_2", nsgym_param="LINK_MASS_2"),
+    "Pendulum": Bench("Pendulum-v1", "ns_pz/Pendulum-v0", "mass", nsgym_param="m"),
 }
 
 
 def cases(name: str) -> dict[str, Runner]:
     """Every timed variant for one environment of :data:`ENVS`."""
-    base_id, ns_id, param, _ = ENVS[name]
+    bench = ENVS[name]
+    base_id, ns_id, param = bench.base_id, bench.ns_id, bench.param
 
     def rule(scheduler):  # noqa: ANN001, ANN202
         if param == "slip":
-            return DistributionDecrementUpdate(scheduler, k=1e-4)
-        return IncrementUpdate(scheduler, k=1e-4)
+            return DistributionDecrementUpdate(scheduler, k=bench.k)
+        return IncrementUpdate(scheduler, k=bench.k)
 
     every = ScriptedNature({param: rule(ContinuousScheduler(start=0))})
     once = ScriptedNature({param: rule(DiscreteScheduler({1}))})
@@ -143,19 +175,22 @@ def cases(name: str) -> dict[str, Runner]:
 
 def nsgym_cases(name: str) -> dict[str, Runner]:
     """NS-Gym 1.0.12 wrappers on the same schedules."""
-    base_id, _, _, slip = ENVS[name]
+    bench = ENVS[name]
+    base_id = bench.base_id
 
     def build(scheduler_fn: Callable[[], object]) -> gym.Env:
-        if name == "CartPole":
-            update = ng_updates.IncrementUpdate(scheduler_fn(), k=1e-4)
-            return ng_wrappers.NSClassicControlWrapper(gym.make(base_id), {"masspole": update})
-        update = ng_updates.DistributionDecrementUpdate(scheduler_fn(), k=1e-4)
+        if bench.slip is None:
+            update = ng_updates.IncrementUpdate(scheduler_fn(), k=bench.k)
+            return ng_wrappers.NSClassicControlWrapper(
+                gym.make(base_id), {bench.nsgym_param: update}
+            )
+        update = ng_updates.DistributionDecrementUpdate(scheduler_fn(), k=bench.k)
         wrapper = (
             ng_wrappers.NSFrozenLakeWrapper
             if name == "FrozenLake"
             else ng_wrappers.NSCliffWalkingWrapper
         )
-        return wrapper(gym.make(base_id), {"P": update}, initial_prob_dist=list(slip))
+        return wrapper(gym.make(base_id), {"P": update}, initial_prob_dist=list(bench.slip))
 
     every = build(ng_schedulers.ContinuousScheduler)
     once = build(lambda: ng_schedulers.DiscreteScheduler({1}))
@@ -165,11 +200,19 @@ def nsgym_cases(name: str) -> dict[str, Runner]:
     }
 
 
+def random_actions(space: gym.Space, steps: int) -> list:
+    """Seeded uniform actions: ints for a Discrete space, float32 arrays for a Box."""
+    rng = np.random.default_rng(0)
+    if isinstance(space, gym.spaces.Discrete):
+        return rng.integers(0, int(space.n), steps).tolist()
+    draws = rng.uniform(space.low, space.high, (steps, *space.shape)).astype(space.dtype)
+    return list(draws)
+
+
 def measure(name: str, steps: int, rounds: int) -> None:
     """Print µs per step and the median ratio to ``raw`` for every case of one env."""
     runners = cases(name)
-    num_actions = int(gym.make(ENVS[name][0]).action_space.n)
-    actions = np.random.default_rng(0).integers(0, num_actions, steps).tolist()
+    actions = random_actions(gym.make(ENVS[name].base_id).action_space, steps)
     seconds: dict[str, list[float]] = {case: [] for case in runners}
     for _ in range(rounds):
         for case, run in runners.items():

@@ -133,10 +133,13 @@ def _split(kwargs: Mapping[str, Any], ns_names: set[str]) -> tuple[dict[str, Any
 
 
 # --- the registered environments ------------------------------------------------------------
+from ns_pz.envs.acrobot import AcrobotFamily  # noqa: E402
 from ns_pz.envs.bridge import BridgeFamily, SplitBridgeFamily  # noqa: E402
 from ns_pz.envs.cartpole import CartPoleFamily  # noqa: E402
 from ns_pz.envs.cliff_walking import CliffWalkingFamily  # noqa: E402
 from ns_pz.envs.frozen_lake import FrozenLakeFamily  # noqa: E402
+from ns_pz.envs.mountain_car import MountainCarContinuousFamily, MountainCarFamily  # noqa: E402
+from ns_pz.envs.pendulum import PendulumFamily  # noqa: E402
 
 # CartPole-v1's physics with gravity, masses, length, force and time step as θ.
 register(
@@ -144,6 +147,35 @@ register(
     CartPoleFamily,
     max_episode_steps=500,
     description="CartPole; θ: gravity, masscart, masspole, length, force_mag, tau",
+)
+# MountainCar-v0's physics with gravity and push force as θ.
+register(
+    "ns_pz/MountainCar-v0",
+    MountainCarFamily,
+    max_episode_steps=200,
+    description="MountainCar; θ: gravity, force; goal_velocity=",
+)
+# MountainCarContinuous-v0's physics with gravity (a constant in Gymnasium) and power as θ.
+register(
+    "ns_pz/MountainCarContinuous-v0",
+    MountainCarContinuousFamily,
+    max_episode_steps=999,
+    description="MountainCarContinuous; θ: gravity, power; goal_velocity=",
+)
+# Acrobot-v1's book dynamics with link lengths, masses, centres of mass, inertia and dt as θ.
+register(
+    "ns_pz/Acrobot-v0",
+    AcrobotFamily,
+    max_episode_steps=500,
+    description="Acrobot; θ: link_length_1/2, link_mass_1/2, link_com_pos_1/2, link_moi, dt; "
+    "torque_noise_max=",
+)
+# Pendulum-v1's physics with mass, length, gravity and dt as θ.
+register(
+    "ns_pz/Pendulum-v0",
+    PendulumFamily,
+    max_episode_steps=200,
+    description="Pendulum; θ: mass, length, gravity, dt",
 )
 # FrozenLake-v1 (4x4) with the slip vector [intended, action+1, action-1] as θ.
 register(
