@@ -18,6 +18,8 @@ from typing import Any
 from ns_pz.agents.base import Agent
 from ns_pz.agents.baselines import RandomAgent
 from ns_pz.agents.planners import RandomShooting, SnapshotValueIteration
+from ns_pz.agents.search.rats import check_config as check_rats_config
+from ns_pz.agents.search.rats import rats_agent
 
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.views import NSGymEnv
@@ -35,6 +37,8 @@ class AgentEntry:
         description: One line for listings.
         tabular_only: Needs the explicit outcome table (``model.outcomes``) of a tabular family.
         levels: Notification levels the agent is meant to run at (ADA-MCTS: ``none`` only).
+        signature_of: The function whose keyword-only parameters are the hyper-parameters, when
+            ``build`` forwards ``**hyper_parameters`` to it (default: ``build`` itself).
     """
 
     name: str
@@ -42,12 +46,14 @@ class AgentEntry:
     description: str
     tabular_only: bool = False
     levels: frozenset[str] = ALL_LEVELS
+    signature_of: Callable[..., Any] | None = None
 
     def defaults(self) -> dict[str, Any]:
         """Hyper-parameter names and their default values."""
+        source = self.signature_of or self.build
         return {
             p.name: p.default
-            for p in inspect.signature(self.build).parameters.values()
+            for p in inspect.signature(source).parameters.values()
             if p.kind is inspect.Parameter.KEYWORD_ONLY
         }
 
@@ -93,28 +99,8 @@ def _snapshot_vi(env: NSGymEnv) -> Agent:
     return SnapshotValueIteration(gamma=1.0, horizon=horizon)
 
 
-def _rats(
-    env: NSGymEnv,
-    *,
-    depth: int = 3,
-    gamma: float = 0.99,
-    lipschitz_p: float = 1.0,
-    lipschitz_r: float = 0.0,
-    tau: float = 1.0,
-    worst_case: str = "dirac_support",
-    terminal_value: str = "env",
-) -> Agent:
-    from ns_pz.agents.search.rats import rats_agent
-
-    return rats_agent(
-        depth=depth,
-        gamma=gamma,
-        lipschitz_p=lipschitz_p,
-        lipschitz_r=lipschitz_r,
-        tau=tau,
-        worst_case=worst_case,
-        terminal_value=terminal_value,
-    )
+def _rats(env: NSGymEnv, **hyper_parameters: Any) -> Agent:
+    return rats_agent(**hyper_parameters)
 
 
 def _random_shooting(
@@ -200,6 +186,7 @@ register_agent(
         _rats,
         "risk-averse tree search against a worst-case nature (Lecarpentier & Rachelson 2019)",
         tabular_only=True,
+        signature_of=check_rats_config,
     )
 )
 register_agent(
