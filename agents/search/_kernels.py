@@ -45,8 +45,8 @@ def register_step(data_cls: type, step: Any, rollout: Any = None) -> None:
             family's Python ``step`` does.
         rollout: Optional hot loop with the signature of :func:`generic_rollout`. The generic
             one calls ``step`` per transition; a family-specific loop that reads ``data`` once
-            avoids numba's per-call reference counting of the arrays in ``data`` (tabular: ~40
-            instead of ~150 ns per step). It must consume random numbers as the generic one.
+            avoids numba's per-call reference counting of the arrays in ``data`` (tabular:
+            15-50 instead of ~150 ns per step). It must consume random numbers as the generic one.
     """
     _STEPS[data_cls] = step
     if rollout is not None:
@@ -398,10 +398,3 @@ def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_
         num_nodes,
         simulated,
     )
-
-
-def warm_up(data: Any, root: np.ndarray, num_actions: int) -> None:
-    """Compile (or load from the on-disk cache) both kernels for ``type(data)``."""
-    rng = np.random.default_rng(0)
-    uct(data, root, num_actions, 2, 2, 1.0, 1.0, rng, rng)
-    rollout(data, root, num_actions, 1, 1.0, rng, rng)

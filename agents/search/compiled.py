@@ -6,7 +6,12 @@ here imports numba: the kernels (:mod:`ns_pz.agents.search._kernels`) load on fi
 their machine code is cached on disk, so only the first use on a machine compiles.
 
 Built in: every tabular model (one with an outcome table ``model.outcomes``: FrozenLake,
-CliffWalking, Bridge, ...) and CartPole. Adding a family takes three pieces:
+CliffWalking, Bridge, ...) and CartPole. The tabular kernel samples as the slip grids do (one
+uniform draw, the first outcome whose cumulative probability exceeds it), so for them it is
+bit-identical to the reference path; a tabular family that samples its ``step`` differently gets
+statistically identical transitions from its table, not the same ones.
+
+Adding a family takes three pieces:
 
 1. a ``NamedTuple`` class holding what the step needs (θ-derived floats and arrays);
 2. a ``numba.njit(cache=True)`` step ``step(data, state, out, action, rng) -> (reward,
