@@ -14,13 +14,16 @@ statistically identical transitions from its table, not the same ones.
 Adding a family takes three pieces:
 
 1. a ``NamedTuple`` class holding what the step needs (θ-derived floats and arrays);
-2. a ``numba.njit(cache=True)`` step ``step(data, state, out, action, rng) -> (reward,
-   terminal)`` over ``float64`` state vectors that writes the next state into ``out`` and draws
-   randomness with ``rng.random()`` in the same order as the family's Python ``step`` (then the
-   compiled and reference searches agree bit for bit; test it as ``tests/test_mcts.py`` does);
-3. ``register_compiled_family(FamilyClass, encode=..., data_cls=...)`` in numba-free code, and
+2. a ``numba.njit(cache=True, inline="always")`` step ``step(data, state, out, action, rng) ->
+   (reward, terminal)`` over ``float64`` state vectors that writes the next state into ``out``
+   and draws randomness with ``rng.random()`` in the same order as the family's Python ``step``
+   (then the compiled and reference searches agree bit for bit; test it as
+   ``tests/test_mcts.py`` does for CartPole), registered with
    ``_kernels.register_step(DataClass, step)`` in a module named in
-   :data:`COMPILED_STEP_MODULES` (imported when the kernels load).
+   :data:`COMPILED_STEP_MODULES` (imported when the kernels load; ``_kernels`` itself shows
+   both built-in steps);
+3. ``register_compiled_family(FamilyClass, encode, to_vector, from_vector)`` in numba-free code
+   (here, beside the built-ins): ``encode(model)`` builds the ``NamedTuple`` from the model's θ.
 """
 
 from __future__ import annotations
