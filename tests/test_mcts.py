@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -14,6 +16,8 @@ from ns_pz.agents.search.compiled import compile_model, numba_available
 from ns_pz.agents.search.table_model import OutcomeTableModel
 
 import ns_pz
+from ns_pz.family import EnvFamily
+from ns_pz.params import Params, scalar
 from ns_pz.planning import TabularOutcomes
 
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba (the fast extra) missing")
@@ -348,3 +352,83 @@ def test_gamma_bounds_are_allowed(gamma):
     result = uct(model, 0, np.random.default_rng(0), iterations=6, depth=3, gamma=gamma)
     expected = 2.0 if gamma == 0.0 else 12.0
     assert result.values[1] == expected and math.isfinite(result.values[0])
+
+
+@dataclass(frozen=True, slots=True)
+class DriftParams(Params):
+    """θ of the toy family below."""
+
+    push: float = scalar(0.1, low=0.0, high=1.0)
+    noise: float = scalar(0.05, low=0.0, high=1.0)
+
+
+class DriftFamily(EnvFamily):
+    """A point on a line pushed left or right with uniform noise; leaves [-1, 1] to end."""
+
+    params_cls = DriftParams
+
+    def __init__(self) -> None:
+        from gymnasium import spaces
+
+        self.observation_space = spaces.Box(-2.0, 2.0, (1,))
+        self.action_space = spaces.Discrete(2)
+
+    def initial_state(self, rng):
+        """Start at the origin."""
+        return (0.0,)
+
+    def step(self, state, action, theta, rng):
+        """Push, then one uniform draw of noise."""
+        x = state[0] + (theta.push if action == 1 else -theta.push)
+        x = x + theta.noise * (rng.random() - 0.5)
+        return (x,), -abs(x), x < -1.0 or x > 1.0
+
+    def observe(self, state):
+        """The position."""
+        return np.array(state, dtype=np.float32)
+
+
+class DriftData(NamedTuple):
+    """What the compiled drift step needs."""
+
+    push: float
+    noise: float
+
+
+@needs_numba
+def test_a_new_family_plugs_into_the_compiled_kernels():
+    """The documented hook (NamedTuple, compiled step, two registrations) gives the Python tree."""
+    import numba
+    from ns_pz.agents.search import compiled
+
+    @numba.njit(inline="always")
+    def drift_step(data, state, out, action, rng):  # pragma: no cover - compiled
+        x = state[0] + (data.push if action == 1 else -data.push)
+        x = x + data.noise * (rng.random() - 0.5)
+        out[0] = x
+        return -abs(x), x < -1.0 or x > 1.0
+
+    compiled.kernels().register_step(DriftData, drift_step)
+    compiled.register_compiled_family(
+        DriftFamily,
+        lambda model: DriftData(model.theta.push, model.theta.noise),
+        lambda state: np.array(state, dtype=np.float64),
+        lambda vector: (float(vector[0]),),
+    )
+    trees = []
+    for backend in ("python", "compiled"):
+        model = DriftFamily().planning_model(DriftParams(), (0.0,), np.random.default_rng(3))
+        trees.append(
+            uct_tree(
+                model,
+                (0.0,),
+                np.random.default_rng(4),
+                iterations=80,
+                depth=30,
+                gamma=0.9,
+                backend=backend,
+            )
+        )
+    assert trees[0].states == trees[1].states and len(trees[0].states) == 81
+    np.testing.assert_array_equal(trees[0].q, trees[1].q)
+    np.testing.assert_array_equal(trees[0].visits, trees[1].visits)
