@@ -396,7 +396,7 @@ class DriftData(NamedTuple):
 
 
 @needs_numba
-def test_a_new_family_plugs_into_the_compiled_kernels():
+def test_a_new_family_plugs_into_the_compiled_kernels(tmp_path):
     """The documented hook (NamedTuple, compiled step, two registrations) gives the Python tree."""
     import numba
     from ns_pz.agents.search import compiled
@@ -408,7 +408,8 @@ def test_a_new_family_plugs_into_the_compiled_kernels():
         out[0] = x
         return -abs(x), x < -1.0 or x > 1.0
 
-    compiled.kernels().register_step(DriftData, drift_step)
+    compiled.register_step(DriftData, drift_step)
+    assert compiled.kernels_for(DriftData) is not compiled.kernels()  # never cached on disk
     compiled.register_compiled_family(
         DriftFamily,
         lambda model: DriftData(model.theta.push, model.theta.noise),
@@ -432,3 +433,11 @@ def test_a_new_family_plugs_into_the_compiled_kernels():
     assert trees[0].states == trees[1].states and len(trees[0].states) == 81
     np.testing.assert_array_equal(trees[0].q, trees[1].q)
     np.testing.assert_array_equal(trees[0].visits, trees[1].visits)
+    # The on-disk cache stays readable by processes that cannot import this test module.
+    code = (
+        "import numpy as np, ns_pz; from ns_pz.agents.search import uct;"
+        "env = ns_pz.make_gym('ns_pz/FrozenLake-v0'); env.reset(seed=0);"
+        "m = env.planning_model();"
+        "print(uct(m, 0, np.random.default_rng(0), iterations=5, backend='compiled').action)"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, capture_output=True)

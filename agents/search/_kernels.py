@@ -13,10 +13,16 @@ in place: a compiled search consumes exactly the draws the reference Python sear
 the same order, so both give bit-identical trees for the same seeds. Every random choice is one
 ``rng.random()`` draw (an index ``int(u * n)``), never ``rng.integers``.
 
-Numba caches the kernel under the kernel's source file: editing a registered step in another
-module does not invalidate it. After changing a compiled step, delete the ``__pycache__/*.nbi``
-and ``*.nbc`` files (or set ``NUMBA_CACHE_DIR`` to a fresh directory); the tests that compare the
-compiled and reference paths catch a stale cache.
+Numba's cache index of a kernel lists every type it was compiled for, and a later process must be
+able to import each of them to read the index. So only data classes defined in ``ns_pz``
+modules reach this module's on-disk cache; data classes defined elsewhere (a script, a test) use
+a second, uncached copy of this module (:func:`ns_pz.agents.search.compiled.kernels_for`), and
+compile once per process.
+
+Numba caches the kernel under this source file: editing a registered step in another module does
+not invalidate it. After changing a compiled step, delete the ``__pycache__/*.nbi`` and ``*.nbc``
+files (or set ``NUMBA_CACHE_DIR`` to a fresh directory); the tests that compare the compiled and
+reference paths catch a stale cache.
 """
 
 from __future__ import annotations
@@ -29,6 +35,9 @@ import numpy as np
 from ns_pz.agents.search.compiled import CartPoleData, TabularData
 from numba.core import types
 from numba.extending import overload
+
+CACHE = __name__ == "ns_pz.agents.search._kernels"
+"""Whether this copy caches machine code on disk (see :func:`compiled.kernels_for`)."""
 
 _STEPS: dict[type, Any] = {}
 _ROLLOUTS: dict[type, Any] = {}
@@ -58,7 +67,7 @@ def family_step(data: Any, state: Any, out: Any, action: Any, rng: Any) -> Any:
     raise NotImplementedError("family_step only runs inside compiled code")
 
 
-@overload(family_step, jit_options={"cache": True}, inline="always")  # type: ignore[typeddict-unknown-key]
+@overload(family_step, jit_options={"cache": CACHE}, inline="always")  # type: ignore[typeddict-unknown-key]
 def _family_step_overload(data: Any, state: Any, out: Any, action: Any, rng: Any) -> Any:
     if not isinstance(data, types.BaseNamedTuple):
         return None
@@ -85,7 +94,7 @@ def family_rollout(
     raise NotImplementedError("family_rollout only runs inside compiled code")
 
 
-@overload(family_rollout, jit_options={"cache": True})  # type: ignore[typeddict-unknown-key]
+@overload(family_rollout, jit_options={"cache": CACHE})  # type: ignore[typeddict-unknown-key]
 def _family_rollout_overload(
     data: Any,
     state: Any,
@@ -114,13 +123,13 @@ def _family_rollout_overload(
     return impl
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=CACHE, inline="always")
 def _uniform_index(rng, n):  # type: ignore[no-untyped-def]  # pragma: no cover
     index = int(rng.random() * n)
     return index if index < n else n - 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=CACHE)
 def generic_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """Uniform random actions from ``state`` for up to ``depth`` steps or until terminal.
 
@@ -150,7 +159,7 @@ def generic_rollout(data, state, num_actions, depth, gamma, model_rng, search_rn
 
 
 # --- built-in families ----------------------------------------------------------------------
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=CACHE, inline="always")
 def tabular_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
     """One uniform draw picks the first outcome whose cumulative probability exceeds it."""
     s = int(state[0])
@@ -173,7 +182,7 @@ def tabular_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]
     return data.rewards[s, action, pick], data.terminals[s, action, pick]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=CACHE)
 def tabular_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """:func:`generic_rollout` with :func:`tabular_step` written into the loop."""
     probs = data.probs
@@ -212,7 +221,7 @@ def tabular_rollout(data, state, num_actions, depth, gamma, model_rng, search_rn
 register_step(TabularData, tabular_step, tabular_rollout)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=CACHE, inline="always")
 def cartpole_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
     """The same floating-point operations, in the same order, as ``CartPoleFamily.step``."""
     x = state[0]
@@ -257,13 +266,13 @@ register_step(CartPoleData, cartpole_step)
 
 
 # --- the search -----------------------------------------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=CACHE)
 def rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """The family's rollout (see :func:`generic_rollout`): ``(discounted return, steps)``."""
     return family_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=CACHE)
 def repeated_rollouts(data, state, count, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """``count`` rollouts from ``state`` in one call: ``(returns[count], total steps)``."""
     returns = np.empty(count)
@@ -275,7 +284,7 @@ def repeated_rollouts(data, state, count, num_actions, depth, gamma, model_rng, 
     return returns, total_steps
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=CACHE)
 def _select_action(q, visits, node_visits, num_actions, c, rng, ties):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """Untried actions first (one at random), then UCB with random tie-breaks."""
     untried = 0
@@ -302,7 +311,7 @@ def _select_action(q, visits, node_visits, num_actions, c, rng, ties):  # type: 
     return ties[_uniform_index(rng, count)]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=CACHE)
 def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """UCT as ``ns_pz.agents.search.mcts.reference_uct``, over arrays.
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import ModuleType
@@ -141,10 +142,46 @@ def numba_available() -> bool:
 
 
 def kernels() -> ModuleType:
-    """The compiled kernels module (imports numba and every step module on first call)."""
+    """The cached kernels module (imports numba and every step module on first call)."""
     for name in COMPILED_STEP_MODULES:
         importlib.import_module(name)
     return importlib.import_module("ns_pz.agents.search._kernels")
+
+
+_UNCACHED = "ns_pz.agents.search._kernels_uncached"
+
+
+def uncached_kernels() -> ModuleType:
+    """A second copy of the kernels that never writes to numba's on-disk cache."""
+    module = sys.modules.get(_UNCACHED)
+    if module is None:
+        source = kernels().__file__
+        spec = importlib.util.spec_from_file_location(_UNCACHED, source)
+        if spec is None or spec.loader is None:  # pragma: no cover - the file was just imported
+            raise ImportError(f"cannot load a copy of {source}")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[_UNCACHED] = module
+        spec.loader.exec_module(module)
+    return module
+
+
+def kernels_for(data_cls: type) -> ModuleType:
+    """The kernels that serve ``data_cls``: cached if it lives in ``ns_pz``, else uncached.
+
+    Numba's cache index names every type a kernel was compiled for; a class from a script or a
+    test module in it would make the index unreadable by any process that cannot import that
+    module. Classes in ``ns_pz`` modules can always be imported, so only they are cached.
+    """
+    return kernels() if data_cls.__module__.startswith("ns_pz.") else uncached_kernels()
+
+
+def register_step(data_cls: type, step: Any, rollout: Any = None) -> None:
+    """Register the compiled ``step`` (and optional ``rollout``) of ``data_cls``'s family.
+
+    See :func:`ns_pz.agents.search._kernels.register_step` for the contract; this picks the
+    cached or uncached kernels (:func:`kernels_for`).
+    """
+    kernels_for(data_cls).register_step(data_cls, step, rollout)
 
 
 def compiled_family_of(model: Any) -> CompiledFamily | None:

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
-from ns_pz.agents.search.compiled import BACKENDS, CompiledModel, compile_model, kernels
+from ns_pz.agents.search.compiled import BACKENDS, CompiledModel, compile_model, kernels_for
 from ns_pz.agents.search.types import SearchAgent, SearchResult
 
 FINALS = ("value", "visits")
@@ -214,7 +214,7 @@ def compiled_uct(
 ) -> UCTTree:
     """UCT in the numba kernel; same tree as :func:`reference_uct` for the same generators."""
     family = compiled.family
-    result = kernels().uct(
+    result = kernels_for(type(compiled.data)).uct(
         compiled.data,
         family.to_vector(root_state),
         compiled.num_actions,
