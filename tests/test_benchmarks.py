@@ -16,3 +16,18 @@ def test_core_benchmark_smoke_run():
     ).stdout
     for case in ("view, change every step", "AEC cycle, change every step", "save + restore"):
         assert case in out
+
+
+def test_search_benchmark_smoke_run(tmp_path):
+    """bench_search.py --smoke times a decision and a model step for every setting."""
+    bench = BENCH.parent / "bench_search.py"
+    out = subprocess.run(
+        [sys.executable, str(bench), "--smoke"],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=tmp_path,
+    ).stdout
+    assert "One MCTS decision" in out and "Model step in the rollout loop" in out
+    for setting in ("FrozenLake m=5 d=100", "CliffWalking m=50 d=200", "CartPole m=15 d=500"):
+        assert setting in out

@@ -1,0 +1,409 @@
+"""Compiled (numba) UCT and rollouts; imported on first use, never by ``import ns_pz``.
+
+One UCT kernel serves every family with a compiled step. States are ``float64`` vectors (a grid
+cell is a 1-vector holding its index), and the family's dynamics are reached through
+:func:`family_step`, which numba resolves at compile time from the *type* of the ``data``
+argument: each family defines a ``NamedTuple`` of what its step needs (θ-derived arrays and
+constants) and registers a compiled step for that class with :func:`register_step`. Because the
+kernel is specialised by that type (not by a function object), its machine code is cached on disk
+(``cache=True``) and loaded in later processes without compiling.
+
+Random numbers come from the caller's ``numpy.random.Generator`` objects, which numba advances
+in place: a compiled search consumes exactly the draws the reference Python search consumes, in
+the same order, so both give bit-identical trees for the same seeds. Every random choice is one
+``rng.random()`` draw (an index ``int(u * n)``), never ``rng.integers``.
+
+Numba's cache index of a kernel lists every type it was compiled for, and a later process must be
+able to import each of them to read the index. So only data classes defined in ``ns_pz``
+modules reach this module's on-disk cache; data classes defined elsewhere (a script, a test) use
+a second, uncached copy of this module (:func:`ns_pz.agents.search.compiled.kernels_for`), and
+compile once per process.
+
+Numba caches the kernel under this source file: editing a registered step in another module does
+not invalidate it. After changing a compiled step, delete the ``__pycache__/*.nbi`` and ``*.nbc``
+files (or set ``NUMBA_CACHE_DIR`` to a fresh directory); the tests that compare the compiled and
+reference paths catch a stale cache.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numba
+import numpy as np
+from ns_pz.agents.search.compiled import CartPoleData, TabularData
+from numba.core import types
+from numba.extending import overload
+
+CACHE = __name__ == "ns_pz.agents.search._kernels"
+"""Whether this copy caches machine code on disk (see :func:`compiled.kernels_for`)."""
+
+_STEPS: dict[type, Any] = {}
+_ROLLOUTS: dict[type, Any] = {}
+
+
+def register_step(data_cls: type, step: Any, rollout: Any = None) -> None:
+    """Make ``step`` (and ``rollout``) the compiled dynamics of ``data`` arguments of ``data_cls``.
+
+    Args:
+        data_cls: A ``NamedTuple`` class (numba types its instances structurally).
+        step: A ``numba.njit(cache=True, inline="always")`` function ``step(data, state, out,
+            action, rng) -> (reward, terminal)`` that writes the next state into ``out`` (a
+            ``float64`` vector) and draws its randomness with ``rng.random()`` exactly as the
+            family's Python ``step`` does.
+        rollout: Optional hot loop with the signature of :func:`generic_rollout`. The generic
+            one calls ``step`` per transition; a family-specific loop that reads ``data`` once
+            avoids numba's per-call reference counting of the arrays in ``data`` (tabular:
+            15-50 instead of ~150 ns per step). It must consume random numbers as the generic one.
+    """
+    _STEPS[data_cls] = step
+    if rollout is not None:
+        _ROLLOUTS[data_cls] = rollout
+
+
+def family_step(data: Any, state: Any, out: Any, action: Any, rng: Any) -> Any:
+    """Stub resolved by numba to the step registered for ``type(data)``."""
+    raise NotImplementedError("family_step only runs inside compiled code")
+
+
+@overload(family_step, jit_options={"cache": CACHE}, inline="always")  # type: ignore[typeddict-unknown-key]
+def _family_step_overload(data: Any, state: Any, out: Any, action: Any, rng: Any) -> Any:
+    if not isinstance(data, types.BaseNamedTuple):
+        return None
+    step = _STEPS.get(data.instance_class)  # type: ignore[attr-defined]
+    if step is None:
+        return None
+
+    def impl(data: Any, state: Any, out: Any, action: Any, rng: Any) -> Any:  # pragma: no cover
+        return step(data, state, out, action, rng)
+
+    return impl
+
+
+def family_rollout(
+    data: Any,
+    state: Any,
+    num_actions: Any,
+    depth: Any,
+    gamma: Any,
+    model_rng: Any,
+    search_rng: Any,
+) -> Any:
+    """Stub resolved by numba to the registered rollout, or :func:`generic_rollout`."""
+    raise NotImplementedError("family_rollout only runs inside compiled code")
+
+
+@overload(family_rollout, jit_options={"cache": CACHE})  # type: ignore[typeddict-unknown-key]
+def _family_rollout_overload(
+    data: Any,
+    state: Any,
+    num_actions: Any,
+    depth: Any,
+    gamma: Any,
+    model_rng: Any,
+    search_rng: Any,
+) -> Any:
+    data_cls = getattr(data, "instance_class", None)  # numba's NamedTuple types have it
+    if not isinstance(data, types.BaseNamedTuple) or data_cls not in _STEPS:
+        return None
+    loop = _ROLLOUTS.get(data_cls, generic_rollout)
+
+    def impl(  # pragma: no cover
+        data: Any,
+        state: Any,
+        num_actions: Any,
+        depth: Any,
+        gamma: Any,
+        model_rng: Any,
+        search_rng: Any,
+    ) -> Any:
+        return loop(data, state, num_actions, depth, gamma, model_rng, search_rng)
+
+    return impl
+
+
+@numba.njit(cache=CACHE, inline="always")
+def _uniform_index(rng, n):  # type: ignore[no-untyped-def]  # pragma: no cover
+    index = int(rng.random() * n)
+    return index if index < n else n - 1
+
+
+@numba.njit(cache=CACHE)
+def generic_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """Uniform random actions from ``state`` for up to ``depth`` steps or until terminal.
+
+    Each step draws the action from ``search_rng`` first, then calls the family's step (which
+    draws from ``model_rng``). Rewards are discounted by ``gamma`` per step from 1.
+
+    Returns:
+        ``(discounted return, steps taken)``.
+    """
+    current = state.copy()
+    nxt = np.empty_like(current)
+    dim = current.shape[0]
+    total = 0.0
+    discount = 1.0
+    steps = 0
+    while steps < depth:
+        action = _uniform_index(search_rng, num_actions)
+        reward, done = family_step(data, current, nxt, action, model_rng)
+        total += discount * reward
+        discount *= gamma
+        steps += 1
+        if done:
+            break
+        for j in range(dim):
+            current[j] = nxt[j]
+    return total, steps
+
+
+# --- built-in families ----------------------------------------------------------------------
+@numba.njit(cache=CACHE, inline="always")
+def tabular_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """One uniform draw picks the first outcome whose cumulative probability exceeds it."""
+    s = int(state[0])
+    probs = data.probs
+    num_outcomes = probs.shape[2]
+    u = rng.random()
+    total = 0.0
+    pick = -1
+    for k in range(num_outcomes):
+        total += probs[s, action, k]
+        if u < total:
+            pick = k
+            break
+    if pick < 0:  # rounding left the sum below u: the last outcome of positive probability
+        for k in range(num_outcomes - 1, -1, -1):
+            if probs[s, action, k] > 0.0:
+                pick = k
+                break
+    out[0] = data.next_states[s, action, pick]
+    return data.rewards[s, action, pick], data.terminals[s, action, pick]
+
+
+@numba.njit(cache=CACHE)
+def tabular_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """:func:`generic_rollout` with :func:`tabular_step` written into the loop."""
+    probs = data.probs
+    next_states = data.next_states
+    rewards = data.rewards
+    terminals = data.terminals
+    num_outcomes = probs.shape[2]
+    s = int(state[0])
+    total = 0.0
+    discount = 1.0
+    steps = 0
+    while steps < depth:
+        action = _uniform_index(search_rng, num_actions)
+        u = model_rng.random()
+        cumulative = 0.0
+        pick = -1
+        for k in range(num_outcomes):
+            cumulative += probs[s, action, k]
+            if u < cumulative:
+                pick = k
+                break
+        if pick < 0:
+            for k in range(num_outcomes - 1, -1, -1):
+                if probs[s, action, k] > 0.0:
+                    pick = k
+                    break
+        total += discount * rewards[s, action, pick]
+        discount *= gamma
+        steps += 1
+        if terminals[s, action, pick]:
+            break
+        s = next_states[s, action, pick]
+    return total, steps
+
+
+register_step(TabularData, tabular_step, tabular_rollout)
+
+
+@numba.njit(cache=CACHE, inline="always")
+def cartpole_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """The same floating-point operations, in the same order, as ``CartPoleFamily.step``."""
+    x = state[0]
+    x_dot = state[1]
+    angle = state[2]
+    angle_dot = state[3]
+    force = data.force_mag if action == 1 else -data.force_mag
+    cos = math.cos(angle)
+    sin = math.sin(angle)
+    total_mass = data.masspole + data.masscart
+    polemass_length = data.masspole * data.length
+    temp = (force + polemass_length * (angle_dot * angle_dot) * sin) / total_mass
+    angle_acc = (data.gravity * sin - cos * temp) / (
+        data.length * (4.0 / 3.0 - data.masspole * (cos * cos) / total_mass)
+    )
+    x_acc = temp - polemass_length * angle_acc * cos / total_mass
+    tau = data.tau
+    if data.euler:
+        x = x + tau * x_dot
+        x_dot = x_dot + tau * x_acc
+        angle = angle + tau * angle_dot
+        angle_dot = angle_dot + tau * angle_acc
+    else:
+        x_dot = x_dot + tau * x_acc
+        x = x + tau * x_dot
+        angle_dot = angle_dot + tau * angle_acc
+        angle = angle + tau * angle_dot
+    out[0] = x
+    out[1] = x_dot
+    out[2] = angle
+    out[3] = angle_dot
+    terminal = (
+        x < -data.x_threshold
+        or x > data.x_threshold
+        or angle < -data.theta_threshold
+        or angle > data.theta_threshold
+    )
+    return 1.0, terminal
+
+
+register_step(CartPoleData, cartpole_step)
+
+
+# --- the search -----------------------------------------------------------------------------
+@numba.njit(cache=CACHE)
+def rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """The family's rollout (see :func:`generic_rollout`): ``(discounted return, steps)``."""
+    return family_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng)
+
+
+@numba.njit(cache=CACHE)
+def repeated_rollouts(data, state, count, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """``count`` rollouts from ``state`` in one call: ``(returns[count], total steps)``."""
+    returns = np.empty(count)
+    total_steps = 0
+    for i in range(count):
+        value, steps = family_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng)
+        returns[i] = value
+        total_steps += steps
+    return returns, total_steps
+
+
+@numba.njit(cache=CACHE)
+def _select_action(q, visits, node_visits, num_actions, c, rng, ties):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """Untried actions first (one at random), then UCB with random tie-breaks."""
+    untried = 0
+    for a in range(num_actions):
+        if visits[a] == 0:
+            ties[untried] = a
+            untried += 1
+    if untried > 0:
+        return ties[_uniform_index(rng, untried)]
+    log_n = math.log(node_visits)
+    best = -np.inf
+    count = 0
+    for a in range(num_actions):
+        score = q[a] + c * math.sqrt(log_n / visits[a])
+        if score > best:
+            best = score
+            ties[0] = a
+            count = 1
+        elif score == best:
+            ties[count] = a
+            count += 1
+    if count == 1:
+        return ties[0]
+    return ties[_uniform_index(rng, count)]
+
+
+@numba.njit(cache=CACHE)
+def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """UCT as ``ns_pz.agents.search.mcts.reference_uct``, over arrays.
+
+    Node ``i`` (0 is the root) has ``states[i]``, ``terminal[i]``, ``node_visits[i]``,
+    ``visits[i, a]`` and ``q[i, a]``; its children under action ``a`` form a linked list from
+    ``first_child[i, a]`` through ``next_sibling``. At most one node is created per iteration.
+
+    Returns:
+        ``(parent, parent_action, states, terminal, node_visits, visits, q, num_nodes,
+        simulated_steps)`` with the arrays cut to ``num_nodes`` rows.
+    """
+    capacity = iterations + 1
+    dim = root.shape[0]
+    states = np.empty((capacity, dim))
+    terminal = np.zeros(capacity, dtype=np.bool_)
+    node_visits = np.zeros(capacity, dtype=np.int64)
+    visits = np.zeros((capacity, num_actions), dtype=np.int64)
+    q = np.zeros((capacity, num_actions))
+    first_child = np.full((capacity, num_actions), -1, dtype=np.int64)
+    next_sibling = np.full(capacity, -1, dtype=np.int64)
+    parent = np.full(capacity, -1, dtype=np.int64)
+    parent_action = np.full(capacity, -1, dtype=np.int64)
+    path_nodes = np.empty(capacity, dtype=np.int64)
+    path_actions = np.empty(capacity, dtype=np.int64)
+    path_rewards = np.empty(capacity)
+    ties = np.empty(num_actions, dtype=np.int64)
+    sampled = np.empty(dim)
+    states[0] = root
+    num_nodes = 1
+    simulated = 0
+    for _ in range(iterations):
+        node = 0
+        length = 0
+        done = False
+        while not terminal[node]:
+            action = _select_action(
+                q[node], visits[node], node_visits[node], num_actions, c, search_rng, ties
+            )
+            reward, done = family_step(data, states[node], sampled, action, model_rng)
+            simulated += 1
+            path_nodes[length] = node
+            path_actions[length] = action
+            path_rewards[length] = reward
+            length += 1
+            child = first_child[node, action]
+            last = -1
+            while child >= 0:
+                same = True
+                for j in range(dim):
+                    if states[child, j] != sampled[j]:
+                        same = False
+                        break
+                if same:
+                    break
+                last = child
+                child = next_sibling[child]
+            new = child < 0
+            if new:
+                child = num_nodes
+                num_nodes += 1
+                states[child] = sampled
+                terminal[child] = done
+                parent[child] = node
+                parent_action[child] = action
+                if last < 0:
+                    first_child[node, action] = child
+                else:
+                    next_sibling[last] = child
+            node = child
+            if new or done:
+                break
+        value = 0.0
+        if not done:
+            value, steps = family_rollout(
+                data, states[node], num_actions, depth, gamma, model_rng, search_rng
+            )
+            simulated += steps
+        for i in range(length - 1, -1, -1):
+            n = path_nodes[i]
+            a = path_actions[i]
+            value = path_rewards[i] + gamma * value
+            node_visits[n] += 1
+            visits[n, a] += 1
+            q[n, a] += (value - q[n, a]) / visits[n, a]
+    return (
+        parent[:num_nodes],
+        parent_action[:num_nodes],
+        states[:num_nodes],
+        terminal[:num_nodes],
+        node_visits[:num_nodes],
+        visits[:num_nodes],
+        q[:num_nodes],
+        num_nodes,
+        simulated,
+    )

@@ -1,0 +1,260 @@
+"""ADA-MCTS (agents/search/ada_mcts.py) and its Dirichlet learner (agents/search/dirichlet.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from ns_pz.agents import run_episode, value_iteration
+from ns_pz.agents.search import ADAMCTS, MCTS
+from ns_pz.agents.search.ada_mcts import manhattan, pessimistic_kernel
+from ns_pz.agents.search.dirichlet import DirichletLearner, atoms_of
+
+import ns_pz
+
+
+def lake(slip: tuple[float, float, float] = (0.7, 0.15, 0.15)):
+    """FrozenLake 4x4 after reset, and its planning model (θ_0 = ``slip``)."""
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": slip})
+    env.reset(seed=0)
+    return env, env.planning_model()
+
+
+def sample(outcomes, state, action, rng):
+    """One transition (next state, reward, terminal) drawn from a table."""
+    k = rng.choice(outcomes.probs.shape[2], p=outcomes.probs[state, action])
+    return (
+        int(outcomes.next_states[state, action, k]),
+        float(outcomes.rewards[state, action, k]),
+        bool(outcomes.terminals[state, action, k]),
+    )
+
+
+def test_atoms_merge_slots_with_the_same_outcome():
+    """At the top-left corner, UP and LEFT both stay put: one atom for two slots."""
+    _, model = lake()
+    table = model.outcomes
+    atoms = atoms_of(table.next_states, table.rewards, table.terminals)
+    # state 0, action LEFT: intended LEFT stays at 0, +1 = DOWN -> 4, -1 = UP stays at 0
+    assert table.next_states[0, 0].tolist() == [0, 4, 0]
+    assert atoms[0, 0].tolist() == [0, 1, 0]
+    assert atoms[6, 0].tolist() == [0, 1, 2]
+
+
+@pytest.mark.parametrize("pooling", ["state_action", "shared"])
+def test_posterior_converges_to_the_changed_kernel(pooling):
+    """Transitions from p=0.4 teach M1 the new kernel; its epistemic uncertainty shrinks."""
+    _, model = lake()
+    base = model.outcomes
+    true = model.family.outcomes(model.family.params_cls(slip=(0.4, 0.3, 0.3)))
+    learner = DirichletLearner(base.next_states, base.rewards, base.terminals, pooling=pooling)
+    rng = np.random.default_rng(0)
+    eu_before = learner.epistemic()[6, 1]
+    states = [1, 2, 4, 6, 8, 9, 10, 13, 14] if pooling == "shared" else [6]
+    for _ in range(4000):
+        state = int(rng.choice(states))
+        action = 1 if pooling == "state_action" else int(rng.integers(4))
+        assert learner.update(state, action, *sample(true, state, action, rng))
+    np.testing.assert_allclose(learner.mean()[6, 1], true.probs[6, 1], atol=0.03)
+    assert learner.epistemic()[6, 1] < eu_before / 50
+    if pooling == "shared":  # every state learned, the corner's merged slots included
+        np.testing.assert_allclose(learner.mean()[0, 0], [0.4, 0.3, 0.3], atol=0.03)
+
+
+def test_unexplained_transitions_are_counted_not_learned():
+    """A transition outside the structural support teaches nothing."""
+    _, model = lake()
+    table = model.outcomes
+    learner = DirichletLearner(table.next_states, table.rewards, table.terminals)
+    before = learner.mean().copy()
+    assert not learner.update(6, 0, 15, 1.0, True)
+    assert learner.unexplained == 1
+    np.testing.assert_array_equal(learner.mean(), before)
+
+
+def test_pessimistic_kernel_worked_out_by_hand():
+    """State 6 of the lake (holes left and right), action LEFT, θ_0 = (0.7, 0.15, 0.15).
+
+    With holes worth -1 the worst outcome is the hole 5 (slot 0). W1 from T0 to the Dirac on it
+    is 0.15 * d(10, 5) + 0.15 * d(2, 5) = 0.15 * 2 + 0.15 * 2 = 0.6 (Manhattan), so radius 0.3
+    gives λ = 0.5: (0.85, 0.075, 0.075). Without danger, the Dirac itself.
+    """
+    _, model = lake()
+    table = model.outcomes
+    values = np.where(table.terminals & (table.rewards <= 0), -1.0, table.rewards)
+    probs = np.asarray(table.probs, dtype=float)
+    mixed = pessimistic_kernel(probs, table.next_states, values, True, 0.3, manhattan(4))
+    np.testing.assert_allclose(mixed[6, 0], [0.85, 0.075, 0.075])
+    full = pessimistic_kernel(probs, table.next_states, values, False, 0.3, None)
+    np.testing.assert_array_equal(full[6, 0], [1.0, 0.0, 0.0])
+    # where no outcome of positive probability is negative, T0 itself
+    np.testing.assert_array_equal(full[0, 0], probs[0, 0])
+    with pytest.raises(ValueError, match="ground metric"):
+        pessimistic_kernel(probs, table.next_states, values, True, 0.3, None)
+
+
+def test_danger_counts_negative_action_next_state_pairs():
+    """State 6 touches two holes: 6 (action, hole) pairs; state 0 touches none."""
+    _, model = lake()
+    agent = ADAMCTS(failure_reward=-1.0)
+    values = agent._values(model.outcomes)
+    assert agent.in_danger(values, model.outcomes, 6)
+    assert not agent.in_danger(values, model.outcomes, 0)
+    assert not ADAMCTS(failure_reward=-1.0, danger_threshold=7).in_danger(values, model.outcomes, 6)
+
+
+def test_sampling_kernel_switches_from_pessimistic_base_to_learned_model():
+    """Before warm-up: P̃0. After it, where M1 is sure and the world is less noisy: T1."""
+    _, model = lake((0.7, 0.15, 0.15))
+    true = model.family.outcomes(model.family.params_cls(slip=(1.0, 0.0, 0.0)))
+    agent = ADAMCTS(iterations=5, depth=5, warmup=20, pooling="shared", failure_reward=-1.0)
+    agent.reset(np.random.default_rng(0))
+    agent.act({"state": 6}, model)
+    phase_one = agent.last_kernel
+    # state 6, DOWN: intended 10 (free), slips to the holes 7 and 5: the Dirac on hole 7
+    np.testing.assert_array_equal(phase_one[6, 1], [0.0, 1.0, 0.0])
+    rng = np.random.default_rng(1)
+    for _ in range(300):
+        state, action = int(rng.choice([0, 1, 2, 4, 6, 8, 9, 10, 13, 14])), int(rng.integers(4))
+        agent.observe(
+            {"state": state}, action, 0.0, {"state": sample(true, state, action, rng)[0]}, False
+        )
+    assert agent.learning_started
+    agent.act({"state": 6}, model)
+    np.testing.assert_array_equal(agent.last_kernel[6, 1], agent.learner.mean()[6, 1])
+    assert agent.last_kernel[6, 1, 0] > 0.98
+    # A noisier world (AU_1 > AU_0) with kappa = 1e4 turns back to the pessimistic base
+    noisy = model.family.outcomes(model.family.params_cls(slip=(1 / 3, 1 / 3, 1 / 3)))
+    agent.reset(np.random.default_rng(0))
+    agent.act({"state": 6}, model)
+    for _ in range(300):
+        state, action = int(rng.choice([0, 1, 2, 4, 6, 8, 9, 10, 13, 14])), int(rng.integers(4))
+        next_state, reward, done = sample(noisy, state, action, rng)
+        agent.observe({"state": state}, action, reward, {"state": next_state}, done)
+    agent.act({"state": 6}, model)
+    assert agent.learning_started
+    np.testing.assert_array_equal(agent.last_kernel[6, 1], [0.0, 1.0, 0.0])
+
+
+def bridge(base_p: float):
+    """The paper's Bridge after reset, planning model at θ_0 = (p, (1-p)/2, (1-p)/2)."""
+    slip = (base_p, (1 - base_p) / 2, (1 - base_p) / 2)
+    env = ns_pz.make_gym("ns_pz/Bridge-v0", params={"slip": slip})
+    env.reset(seed=0)
+    return env.planning_model()
+
+
+def feed(agent, family, true, rng, count):
+    """``count`` real transitions of the changed world at random free cells."""
+    free = [s for s in range(true.probs.shape[0]) if family.cell(s) in "SF"]
+    for _ in range(count):
+        state, action = int(rng.choice(free)), int(rng.integers(4))
+        next_state, reward, done = sample(true, state, action, rng)
+        agent.observe({"state": state}, action, reward, {"state": next_state}, done)
+
+
+def test_after_a_change_ada_mcts_decides_better_than_stale_mcts():
+    """Bridge, θ_0 p=0.7 changed to p=0.4: the narrow bridge becomes deadly.
+
+    True optimal Q at the start: LEFT (long safe path) 0.11, RIGHT (bridge) -0.25. Stale UCT
+    (m=500 as in the paper) with random rollouts on θ_0 mostly goes RIGHT; ADA-MCTS, after 300
+    real transitions of the new world, sees it is noisier and plans pessimistically. Over 20
+    seeds the true value of its first action is higher in at least 15 (a one-sided sign test's
+    p < 0.025 if both were equally good).
+    """
+    model = bridge(0.7)
+    family, start = model.family, model.get_state()
+    true = family.outcomes(family.params_cls(slip=(0.4, 0.3, 0.3)))
+    _, q_true = value_iteration(true, 0.99)
+    better = 0
+    ada_values, stale_values = [], []
+    for seed in range(20):
+        agent = ADAMCTS(iterations=500, depth=50)
+        agent.reset(np.random.default_rng(seed))
+        agent.act({"state": start}, model)
+        feed(agent, family, true, np.random.default_rng(100 + seed), 300)
+        ada = agent.act({"state": start}, model)
+        stale = MCTS(iterations=500, depth=50)
+        stale.reset(np.random.default_rng(seed))
+        stale_action = stale.act({"state": start}, model)
+        ada_values.append(q_true[start, ada])
+        stale_values.append(q_true[start, stale_action])
+        better += q_true[start, ada] > q_true[start, stale_action]
+    assert better >= 15, (ada_values, stale_values)
+    assert np.mean(ada_values) > np.mean(stale_values) + 0.1
+
+
+def test_learning_changes_the_decision_the_way_the_new_world_asks():
+    """Bridge, θ_0 p=0.7 changed to deterministic: after learning, take the short bridge.
+
+    Fresh (phase 1) ADA-MCTS is pessimistic about the bridge and goes LEFT; having seen 300
+    deterministic transitions (shared pooling), it plans with T1 and goes RIGHT, the true optimum
+    (Q 0.98 vs 0.97), in at least 15 of 20 seeds, while the fresh agent does in at most 5.
+    """
+    model = bridge(0.7)
+    family, start = model.family, model.get_state()
+    true = family.outcomes(family.params_cls(slip=(1.0, 0.0, 0.0)))
+    _, q_true = value_iteration(true, 0.99)
+    assert q_true[start].argmax() == 2
+    fresh_right = learned_right = 0
+    for seed in range(20):
+        agent = ADAMCTS(iterations=300, depth=50, pooling="shared")
+        agent.reset(np.random.default_rng(seed))
+        fresh_right += agent.act({"state": start}, model) == 2
+        feed(agent, family, true, np.random.default_rng(100 + seed), 300)
+        learned_right += agent.act({"state": start}, model) == 2
+    assert learned_right >= 15 and fresh_right <= 5, (learned_right, fresh_right)
+
+
+def test_episode_runs_learns_and_reset_clears_the_learner():
+    """In the evaluation loop every real step is counted; a new episode starts from the prior."""
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": (0.7, 0.15, 0.15)})
+    agent = ADAMCTS(iterations=20, depth=20, warmup=3)
+    first = run_episode(env, agent, seed=1)
+    assert agent.transitions == first.length
+    assert agent.learner is not None and agent.learner.visits.sum() == first.length
+    again = run_episode(
+        ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": (0.7, 0.15, 0.15)}), agent, seed=1
+    )
+    assert again == first  # reset cleared M1: the same seed replays the same episode
+    agent.reset(np.random.default_rng(0))
+    assert agent.learner is None and agent.transitions == 0
+
+
+def test_non_tabular_models_are_refused():
+    """CartPole has no outcome table: ADA-MCTS says what it needs."""
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    agent = ADAMCTS()
+    agent.reset(np.random.default_rng(0))
+    with pytest.raises(ValueError, match="needs a tabular planning model.*PlanningModel"):
+        agent.act({"state": 0}, env.planning_model())
+    with pytest.raises(ValueError, match="needs a tabular planning model.*NoneType"):
+        agent.act({"state": 0}, None)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"iterations": 0}, ValueError, r"iterations=0 must be >= 1"),
+        ({"gamma": 2.0}, ValueError, r"gamma=2.0 must lie in \[0, 1\]"),
+        ({"delta": -0.1}, ValueError, r"delta=-0.1 must be >= 0"),
+        ({"kappa": float("inf")}, TypeError, r"kappa=inf must be a finite number"),
+        ({"warmup": -5}, ValueError, r"warmup=-5 must be >= 0"),
+        ({"radius": -1}, ValueError, r"radius=-1 must be >= 0"),
+        ({"base_concentration": 0}, ValueError, r"base_concentration=0 must be > 0"),
+        ({"pooling": "global"}, ValueError, r"pooling='global' is not a pooling"),
+        ({"failure_reward": "low"}, TypeError, r"failure_reward='low' must be a number"),
+    ],
+)
+def test_bad_hyper_parameters_are_refused(kwargs, error, match):
+    """Each bad value is named with what is allowed."""
+    with pytest.raises(error, match=match):
+        ADAMCTS(**kwargs)
+
+
+def test_bad_learner_arguments_are_refused():
+    """The learner checks its pooling and prior."""
+    _, model = lake()
+    table = model.outcomes
+    with pytest.raises(ValueError, match="prior=0.0 must be a finite number > 0"):
+        DirichletLearner(table.next_states, table.rewards, table.terminals, prior=0.0)

@@ -1,0 +1,443 @@
+"""UCT (agents/search/mcts.py) and its compiled kernels (agents/search/_kernels.py)."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+import pytest
+from ns_pz.agents import run_episode, value_iteration
+from ns_pz.agents.search import MCTS, SearchAgent, uct, uct_tree
+from ns_pz.agents.search.compiled import compile_model, numba_available
+from ns_pz.agents.search.table_model import OutcomeTableModel
+
+import ns_pz
+from ns_pz.family import EnvFamily
+from ns_pz.params import Params, scalar
+from ns_pz.planning import TabularOutcomes
+
+needs_numba = pytest.mark.skipif(not numba_available(), reason="numba (the fast extra) missing")
+BACKENDS = ["python", pytest.param("compiled", marks=needs_numba)]
+
+
+def table(rows: list[list[list[tuple[float, int, float, bool]]]]) -> TabularOutcomes:
+    """An outcome table from ``rows[s][a] = [(prob, next, reward, terminal), ...]``."""
+    probs, nxt, rew, term = (
+        np.array([[[o[i] for o in row] for row in by_s] for by_s in rows]) for i in range(4)
+    )
+    return TabularOutcomes(
+        probs.astype(float), nxt.astype(np.int64), rew.astype(float), term.astype(bool)
+    )
+
+
+def two_step_table() -> TabularOutcomes:
+    """Root 0: action 0 pays 1 and ends; action 1 pays 2 to state 2, whose actions pay 10, end."""
+    ends = [(1.0, 3, 0.0, True)]
+    return table(
+        [
+            [[(1.0, 1, 1.0, True)], [(1.0, 2, 2.0, False)]],
+            [ends, ends],
+            [[(1.0, 3, 10.0, True)], [(1.0, 3, 10.0, True)]],
+            [ends, ends],
+        ]
+    )
+
+
+def env_model(env_id: str, seed: int = 0, **kwargs: object):
+    """The planning model of a registered env after reset(seed)."""
+    env = ns_pz.make_gym(env_id, **kwargs)
+    env.reset(seed=seed)
+    return env.planning_model()
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_three_iterations_build_the_tree_worked_out_by_hand(backend):
+    """m=3, gamma=0.5: both root actions tried once, then UCB picks action 1 (Q 7 vs 1).
+
+    Iteration with action 0: 1 (terminal, no rollout). With action 1: 2 + 0.5 * 10 (rollout of
+    one step to the terminal reward 10). Third: UCB ties on the bonus, so action 1 (Q 7); the
+    existing node of state 2 is entered, one of its actions pays 10 and ends: the new leaf gets
+    Q 10 and the root's Q(1) = mean(7, 2 + 0.5 * 10) = 7. Five model steps in all.
+    """
+    model = OutcomeTableModel(two_step_table(), 0, np.random.default_rng(0))
+    tree = uct_tree(
+        model,
+        0,
+        np.random.default_rng(1),
+        iterations=3,
+        depth=5,
+        c=1.0,
+        gamma=0.5,
+        backend=backend,
+    )
+    assert tree.num_nodes == 4
+    assert tree.simulated_steps == 5
+    np.testing.assert_array_equal(tree.visits[0], [1, 2])
+    np.testing.assert_array_equal(tree.q[0], [1.0, 7.0])
+    assert tree.node_visits[0] == 3
+    node_2 = tree.states.index(2)
+    assert tree.parent[node_2] == 0 and tree.parent_action[node_2] == 1
+    assert tree.node_visits[node_2] == 1 and tree.q[node_2].max() == 10.0
+    assert tree.terminal[tree.states.index(1)] and not tree.terminal[node_2]
+    leaf = tree.states.index(3)
+    assert tree.parent[leaf] == node_2 and tree.terminal[leaf]
+    result = uct(model, 0, np.random.default_rng(1), iterations=3, depth=5, c=1.0, gamma=0.5)
+    assert result.action == 1
+    np.testing.assert_array_equal(result.values, [1.0, 7.0])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_golden_frozen_lake_decision(backend):
+    """Fixed generators give a fixed decision and tree (recorded once, equal on both paths)."""
+    model = env_model("ns_pz/FrozenLake-v0", seed=3, params={"slip": (0.7, 0.15, 0.15)})
+    model.rng = np.random.default_rng(11)
+    kwargs = dict(iterations=40, depth=20, gamma=0.95, backend=backend)
+    result = uct(model, 10, np.random.default_rng(12), **kwargs)
+    assert result.action == 1
+    np.testing.assert_array_equal(result.visits, [9, 13, 9, 9])
+    np.testing.assert_array_equal(result.values, [0.0, 0.13902884615384614, 0.0, 0.0])
+    assert result.stats == {"iterations": 40.0, "nodes": 29.0, "simulated_steps": 131.0}
+    model.rng = np.random.default_rng(11)
+    tree = uct_tree(model, 10, np.random.default_rng(12), **kwargs)
+    assert tree.states[:8] == (10, 14, 6, 11, 11, 6, 13, 9)
+    assert tree.parent[:8].tolist() == [-1, 0, 0, 0, 0, 0, 1, 0]
+    assert tree.node_visits[:8].tolist() == [40, 8, 1, 0, 0, 6, 1, 5]
+
+
+def in_tree_rewards_table() -> TabularOutcomes:
+    """Action 0 pays 1 now then nothing; action 1 pays 0 now, then 0.5 or 3 (coin), then ends.
+
+    With gamma=0.9: Q(0) = 1, Q(1) = 0.9 * (0.5 * 0.5 + 0.5 * 3) = 1.575: action 1 is optimal,
+    although its first reward is lower.
+    """
+    stop = [(1.0, 4, 0.0, True), (0.0, 4, 0.0, True)]
+    return table(
+        [
+            [
+                [(1.0, 4, 1.0, True), (0.0, 4, 1.0, True)],
+                [(0.5, 1, 0.0, False), (0.5, 2, 0.0, False)],
+            ],
+            [
+                [(1.0, 4, 0.5, True), (0.0, 4, 0.5, True)],
+                [(1.0, 4, 0.5, True), (0.0, 4, 0.5, True)],
+            ],
+            [
+                [(1.0, 4, 3.0, True), (0.0, 4, 3.0, True)],
+                [(1.0, 4, 3.0, True), (0.0, 4, 3.0, True)],
+            ],
+            [stop, stop],
+            [stop, stop],
+        ]
+    )
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_large_budget_finds_the_optimal_action_of_a_small_mdp(backend):
+    """A greedy first reward misleads; with in-tree rewards backed up UCT finds VI's optimum."""
+    outcomes = in_tree_rewards_table()
+    _, q_values = value_iteration(outcomes, 0.9)
+    assert q_values[0].argmax() == 1 and q_values[0, 0] == 1.0
+    for seed in range(5):
+        model = OutcomeTableModel(outcomes, 0, np.random.default_rng(seed))
+        result = uct(
+            model,
+            0,
+            np.random.default_rng(seed + 100),
+            iterations=400,
+            depth=0,
+            gamma=0.9,
+            backend=backend,
+        )
+        assert result.action == 1
+        assert result.values[1] == pytest.approx(q_values[0, 1], abs=0.25)
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "iterations", "depth", "gamma"),
+    [
+        ("ns_pz/FrozenLake-v0", {"params": {"slip": (0.6, 0.2, 0.2)}}, 200, 50, 0.99),
+        (
+            "ns_pz/CliffWalking-v0",
+            {"goal_reward": 100.0, "params": {"slip": (0.7, 0.1, 0.1, 0.1)}},
+            150,
+            60,
+            0.999,
+        ),
+        ("ns_pz/BridgeSplit-v0", {"params": {"slip_left": (0.5, 0.25, 0.25)}}, 150, 30, 0.99),
+        ("ns_pz/CartPole-v0", {"params": {"masspole": 0.7}}, 120, 200, 0.5),
+        ("ns_pz/CartPole-v0", {"kinematics_integrator": "semi-implicit euler"}, 60, 100, 1.0),
+    ],
+)
+def test_compiled_and_reference_paths_build_the_same_tree(env_id, kwargs, iterations, depth, gamma):
+    """Same generators: the same tree node for node, and both generators left in the same state."""
+    trees, after = [], []
+    for backend in ("python", "compiled"):
+        model = env_model(env_id, seed=4, **kwargs)
+        model.rng = np.random.default_rng(21)
+        rng = np.random.default_rng(22)
+        trees.append(
+            uct_tree(
+                model,
+                model.get_state(),
+                rng,
+                iterations=iterations,
+                depth=depth,
+                gamma=gamma,
+                backend=backend,
+            )
+        )
+        after.append((model.rng.random(), rng.random()))
+    reference, compiled = trees
+    assert reference.states == compiled.states
+    for name in ("parent", "parent_action", "terminal", "node_visits", "visits", "q"):
+        np.testing.assert_array_equal(getattr(reference, name), getattr(compiled, name), name)
+    assert reference.simulated_steps == compiled.simulated_steps > iterations
+    assert after[0] == after[1]
+
+
+@needs_numba
+def test_compiled_rollouts_match_the_reference_model_step_for_step():
+    """Compiled rollout returns equal a Python loop over model.transition with the same draws."""
+    from ns_pz.agents.search.compiled import kernels
+
+    for env_id, kwargs in (
+        ("ns_pz/CliffWalking-v0", {"params": {"slip": (0.5, 0.2, 0.2, 0.1)}}),
+        ("ns_pz/CartPole-v0", {"params": {"length": 0.3}}),
+    ):
+        model = env_model(env_id, seed=1, **kwargs)
+        compiled = compile_model(model, "compiled")
+        root = model.get_state()
+        model_rng, search_rng = np.random.default_rng(5), np.random.default_rng(6)
+        returns, steps = kernels().repeated_rollouts(
+            compiled.data,
+            compiled.family.to_vector(root),
+            30,
+            compiled.num_actions,
+            80,
+            0.97,
+            model_rng,
+            search_rng,
+        )
+        model.rng, search = np.random.default_rng(5), np.random.default_rng(6)
+        expected, total_steps = [], 0
+        for _ in range(30):
+            state, value, discount = root, 0.0, 1.0
+            for _ in range(80):
+                action = min(int(search.random() * compiled.num_actions), compiled.num_actions - 1)
+                state, reward, done = model.transition(state, action)
+                value += discount * reward
+                discount *= 0.97
+                total_steps += 1
+                if done:
+                    break
+            expected.append(value)
+        np.testing.assert_array_equal(returns, expected)
+        assert steps == total_steps
+
+
+def test_uct_leaves_the_model_at_its_state():
+    """The search contract: the model is left at the root state."""
+    model = env_model("ns_pz/FrozenLake-v0")
+    state = model.get_state()
+    uct(model, state, np.random.default_rng(0), iterations=30, depth=10, backend="python")
+    assert model.get_state() == state
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"iterations": 0}, ValueError, r"iterations=0 must be >= 1"),
+        ({"iterations": 2.5}, TypeError, r"iterations=2.5 must be an integer"),
+        ({"iterations": True}, TypeError, r"iterations=True must be an integer"),
+        ({"depth": -1}, ValueError, r"depth=-1 must be >= 0"),
+        ({"gamma": 1.5}, ValueError, r"gamma=1.5 must lie in \[0, 1\]"),
+        ({"gamma": -0.1}, ValueError, r"gamma=-0.1 must lie in \[0, 1\]"),
+        ({"gamma": float("nan")}, ValueError, r"gamma=nan must lie in \[0, 1\]"),
+        ({"c": -1.0}, ValueError, r"c=-1.0 must be a finite number >= 0"),
+        ({"c": "big"}, TypeError, r"c='big' must be a real number"),
+        ({"final": "best"}, ValueError, r"final='best' is not a final-action rule"),
+        ({"backend": "gpu"}, ValueError, r"backend='gpu' is not a backend"),
+    ],
+)
+def test_bad_hyper_parameters_are_refused_with_their_value(kwargs, error, match):
+    """Both the agent and the search function name the bad value and what is allowed."""
+    with pytest.raises(error, match=match):
+        MCTS(**kwargs)
+    model = env_model("ns_pz/FrozenLake-v0")
+    with pytest.raises(error, match=match):
+        uct(model, 0, np.random.default_rng(0), **kwargs)
+
+
+def test_compiled_backend_refuses_models_without_a_compiled_step():
+    """backend='compiled' says why it cannot run; 'auto' falls back to the reference path."""
+
+    class Opaque:
+        action_space = ns_pz.make_gym("ns_pz/FrozenLake-v0").action_space
+        rng = np.random.default_rng(0)
+
+        def transition(self, state, action):
+            return state, 0.0, True
+
+    with pytest.raises(ValueError, match="backend='compiled' is not possible: Opaque has no"):
+        uct(Opaque(), 0, np.random.default_rng(0), iterations=2, backend="compiled")
+    # "auto" falls back to the reference path for it
+    result = uct(Opaque(), 0, np.random.default_rng(0), iterations=4, depth=3)
+    assert result.visits.sum() == 4
+
+
+def test_non_discrete_action_space_is_refused():
+    """UCT enumerates actions: a Box action space is refused."""
+
+    class Continuous:
+        from gymnasium import spaces
+
+        action_space = spaces.Box(-1.0, 1.0, (1,))
+
+    with pytest.raises(TypeError, match="Discrete"):
+        uct(Continuous(), 0, np.random.default_rng(0), iterations=2)
+
+
+@pytest.mark.parametrize("final", ["value", "visits"])
+def test_final_rule_chooses_by_value_or_visits(final):
+    """``final`` picks the argmax of the root's mean Q or of its visit counts."""
+    model = OutcomeTableModel(two_step_table(), 0, np.random.default_rng(0))
+    result = uct(model, 0, np.random.default_rng(3), iterations=20, depth=2, gamma=0.5, final=final)
+    best = np.argmax(result.values if final == "value" else result.visits)
+    assert result.action == best == 1
+
+
+def test_mcts_agent_plays_an_episode_reproducibly():
+    """The agent runs in the evaluation loop; one seed gives one episode."""
+    agent = MCTS(iterations=30, depth=20)
+    assert isinstance(agent, SearchAgent) and agent.needs_model
+    episodes = [
+        run_episode(
+            ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": (1.0, 0.0, 0.0)}), agent, seed=2
+        )
+        for _ in range(2)
+    ]
+    assert episodes[0] == episodes[1]
+    assert agent.last_result is not None and agent.last_result.visits.sum() == 30
+    assert "iterations=30" in repr(agent)
+
+
+def test_mcts_solves_the_deterministic_lake():
+    """With exact transitions UCT finds the goal (VI's optimal return is 1)."""
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": (1.0, 0.0, 0.0)})
+    episode = run_episode(env, MCTS(iterations=200, depth=30, gamma=0.95), seed=0)
+    assert episode.episode_return == 1.0
+
+
+def test_importing_search_does_not_import_numba(tmp_path):
+    """Compile time stays out of imports: numba loads on the first compiled search."""
+    code = (
+        "import sys, ns_pz, ns_pz.agents.search, ns_pz.agents.search.mcts;"
+        "print('numba' in sys.modules)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path
+    ).stdout
+    assert out.strip() == "False"
+
+
+@pytest.mark.parametrize("gamma", [0.0, 1.0])
+def test_gamma_bounds_are_allowed(gamma):
+    """gamma=0 keeps only the first reward, gamma=1 sums them undiscounted."""
+    model = OutcomeTableModel(two_step_table(), 0, np.random.default_rng(0))
+    result = uct(model, 0, np.random.default_rng(0), iterations=6, depth=3, gamma=gamma)
+    expected = 2.0 if gamma == 0.0 else 12.0
+    assert result.values[1] == expected and math.isfinite(result.values[0])
+
+
+@dataclass(frozen=True, slots=True)
+class DriftParams(Params):
+    """θ of the toy family below."""
+
+    push: float = scalar(0.1, low=0.0, high=1.0)
+    noise: float = scalar(0.05, low=0.0, high=1.0)
+
+
+class DriftFamily(EnvFamily):
+    """A point on a line pushed left or right with uniform noise; leaves [-1, 1] to end."""
+
+    params_cls = DriftParams
+
+    def __init__(self) -> None:
+        from gymnasium import spaces
+
+        self.observation_space = spaces.Box(-2.0, 2.0, (1,))
+        self.action_space = spaces.Discrete(2)
+
+    def initial_state(self, rng):
+        """Start at the origin."""
+        return (0.0,)
+
+    def step(self, state, action, theta, rng):
+        """Push, then one uniform draw of noise."""
+        x = state[0] + (theta.push if action == 1 else -theta.push)
+        x = x + theta.noise * (rng.random() - 0.5)
+        return (x,), -abs(x), x < -1.0 or x > 1.0
+
+    def observe(self, state):
+        """The position."""
+        return np.array(state, dtype=np.float32)
+
+
+class DriftData(NamedTuple):
+    """What the compiled drift step needs."""
+
+    push: float
+    noise: float
+
+
+@needs_numba
+def test_a_new_family_plugs_into_the_compiled_kernels(tmp_path):
+    """The documented hook (NamedTuple, compiled step, two registrations) gives the Python tree."""
+    import numba
+    from ns_pz.agents.search import compiled
+
+    @numba.njit(inline="always")
+    def drift_step(data, state, out, action, rng):  # pragma: no cover - compiled
+        x = state[0] + (data.push if action == 1 else -data.push)
+        x = x + data.noise * (rng.random() - 0.5)
+        out[0] = x
+        return -abs(x), x < -1.0 or x > 1.0
+
+    compiled.register_step(DriftData, drift_step)
+    assert compiled.kernels_for(DriftData) is not compiled.kernels()  # never cached on disk
+    compiled.register_compiled_family(
+        DriftFamily,
+        lambda model: DriftData(model.theta.push, model.theta.noise),
+        lambda state: np.array(state, dtype=np.float64),
+        lambda vector: (float(vector[0]),),
+    )
+    trees = []
+    for backend in ("python", "compiled"):
+        model = DriftFamily().planning_model(DriftParams(), (0.0,), np.random.default_rng(3))
+        trees.append(
+            uct_tree(
+                model,
+                (0.0,),
+                np.random.default_rng(4),
+                iterations=80,
+                depth=30,
+                gamma=0.9,
+                backend=backend,
+            )
+        )
+    assert trees[0].states == trees[1].states and len(trees[0].states) == 81
+    np.testing.assert_array_equal(trees[0].q, trees[1].q)
+    np.testing.assert_array_equal(trees[0].visits, trees[1].visits)
+    # The on-disk cache stays readable by processes that cannot import this test module.
+    code = (
+        "import numpy as np, ns_pz; from ns_pz.agents.search import uct;"
+        "env = ns_pz.make_gym('ns_pz/FrozenLake-v0'); env.reset(seed=0);"
+        "m = env.planning_model();"
+        "print(uct(m, 0, np.random.default_rng(0), iterations=5, backend='compiled').action)"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, capture_output=True)
