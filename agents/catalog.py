@@ -18,6 +18,8 @@ from typing import Any
 from ns_pz.agents.base import Agent
 from ns_pz.agents.baselines import RandomAgent
 from ns_pz.agents.planners import RandomShooting, SnapshotValueIteration
+from ns_pz.agents.search.ada_mcts import ADAMCTS
+from ns_pz.agents.search.mcts import MCTS
 from ns_pz.agents.search.rats import check_config as check_rats_config
 from ns_pz.agents.search.rats import rats_agent
 
@@ -51,10 +53,11 @@ class AgentEntry:
     def defaults(self) -> dict[str, Any]:
         """Hyper-parameter names and their default values."""
         source = self.signature_of or self.build
+        kinds = (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
         return {
             p.name: p.default
             for p in inspect.signature(source).parameters.values()
-            if p.kind is inspect.Parameter.KEYWORD_ONLY
+            if p.kind in kinds and p.default is not inspect.Parameter.empty
         }
 
     def check_names(self, hyper: Mapping[str, Any]) -> None:
@@ -99,8 +102,13 @@ def _snapshot_vi(env: NSGymEnv) -> Agent:
     return SnapshotValueIteration(gamma=1.0, horizon=horizon)
 
 
-def _rats(env: NSGymEnv, **hyper_parameters: Any) -> Agent:
-    return rats_agent(**hyper_parameters)
+def _forwarding(factory: Callable[..., Agent]) -> Callable[..., Agent]:
+    """A builder that ignores the env and hands the hyper-parameters to ``factory``."""
+
+    def build(env: NSGymEnv, **hyper_parameters: Any) -> Agent:
+        return factory(**hyper_parameters)
+
+    return build
 
 
 def _random_shooting(
@@ -182,8 +190,26 @@ register_agent(
 )
 register_agent(
     AgentEntry(
+        "mcts",
+        _forwarding(MCTS),
+        "UCT with random rollouts in the handed model (compiled with numba when installed)",
+        signature_of=MCTS,
+    )
+)
+register_agent(
+    AgentEntry(
+        "ada_mcts",
+        _forwarding(ADAMCTS),
+        "ADA-MCTS: learns the changed kernel online (Dirichlet), pessimistic where unsure",
+        tabular_only=True,
+        levels=frozenset({"none"}),
+        signature_of=ADAMCTS,
+    )
+)
+register_agent(
+    AgentEntry(
         "rats",
-        _rats,
+        _forwarding(rats_agent),
         "risk-averse tree search against a worst-case nature (Lecarpentier & Rachelson 2019)",
         tabular_only=True,
         signature_of=check_rats_config,

@@ -216,6 +216,9 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
     except (SpecError, FileNotFoundError, RuntimeError) as error:
         print(f"ns-pz: error: {error}", file=sys.stderr)
         return EXIT_USAGE
+    except BrokenPipeError:  # the reader went away (``ns-pz bench list | head``)
+        sys.stderr.close()
+        return EXIT_OK
     except KeyboardInterrupt:
         print(
             "\nns-pz: interrupted; finished trials are saved, --resume continues", file=sys.stderr
