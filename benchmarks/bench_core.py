@@ -1,9 +1,11 @@
 """Cost of the NS-MDP core relative to the raw Gymnasium step, measured in one run.
 
-For each environment of :data:`ENVS` (CartPole, FrozenLake, CliffWalking, MountainCar,
+For each environment of :data:`ENVS` (CartPole, FrozenLake, CliffWalking, Bridge, MountainCar,
 MountainCarContinuous, Acrobot, Pendulum; ``--envs`` picks some) it times, per transition:
 
-* ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x);
+* ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x). Gymnasium has no
+  Bridge: its reference is NS-Gym's base Bridge env (``ns_gym/Bridge-v0``, unwrapped) when NS-Gym
+  is installed, else the ns_pz view without nature (then labelled ``raw (ns_pz, static)``);
 * ``view, change every step`` / ``view, single change``: the ns_pz Gymnasium view
   (``gymnasium.make("ns_pz/...").unwrapped.step``) with θ changed at every step
   (``ContinuousScheduler`` + ``IncrementUpdate`` / ``DistributionDecrementUpdate``) or once
@@ -127,6 +129,7 @@ class Bench:
 ENVS = {
     "CartPole": Bench("CartPole-v1", "ns_pz/CartPole-v0", "masspole", nsgym_param="masspole"),
     "FrozenLake": Bench("FrozenLake-v1", "ns_pz/FrozenLake-v0", "slip", slip=SLIP),
+    "Bridge": Bench("ns_gym/Bridge-v0", "ns_pz/Bridge-v0", "slip", slip=SLIP),
     "CliffWalking": Bench(
         "CliffWalking-v1", "ns_pz/CliffWalking-v0", "slip", slip=(1.0, 0.0, 0.0, 0.0)
     ),
@@ -157,7 +160,10 @@ def cases(name: str) -> dict[str, Runner]:
 
     every = ScriptedNature({param: rule(ContinuousScheduler(start=0))})
     once = ScriptedNature({param: rule(DiscreteScheduler({1}))})
-    raw = gym.make(base_id).unwrapped
+    if base_id in gym.registry:
+        raw = gym.make(base_id).unwrapped
+    else:  # the Bridge without NS-Gym: the stationary ns_pz view stands in
+        raw = gym.make(ns_id).unwrapped
     view_every = gym.make(ns_id, nature=every).unwrapped
     view_once = gym.make(ns_id, nature=once).unwrapped
     game = ns_pz.make(ns_id)
@@ -185,11 +191,11 @@ def nsgym_cases(name: str) -> dict[str, Runner]:
                 gym.make(base_id), {bench.nsgym_param: update}
             )
         update = ng_updates.DistributionDecrementUpdate(scheduler_fn(), k=bench.k)
-        wrapper = (
-            ng_wrappers.NSFrozenLakeWrapper
-            if name == "FrozenLake"
-            else ng_wrappers.NSCliffWalkingWrapper
-        )
+        wrapper = {
+            "FrozenLake": ng_wrappers.NSFrozenLakeWrapper,
+            "CliffWalking": ng_wrappers.NSCliffWalkingWrapper,
+            "Bridge": ng_wrappers.NSBridgeWrapper,
+        }[name]
         return wrapper(gym.make(base_id), {"P": update}, initial_prob_dist=list(bench.slip))
 
     every = build(ng_schedulers.ContinuousScheduler)
@@ -212,12 +218,13 @@ def random_actions(space: gym.Space, steps: int) -> list:
 def measure(name: str, steps: int, rounds: int) -> None:
     """Print µs per step and the median ratio to ``raw`` for every case of one env."""
     runners = cases(name)
-    actions = random_actions(gym.make(ENVS[name].base_id).action_space, steps)
+    actions = random_actions(gym.make(ENVS[name].ns_id).unwrapped.family.action_space, steps)
     seconds: dict[str, list[float]] = {case: [] for case in runners}
     for _ in range(rounds):
         for case, run in runners.items():
             seconds[case].append(run(actions))
-    print(f"\n{name}: {steps} steps x {rounds} rounds (median)")
+    reference = "" if ENVS[name].base_id in gym.registry else " [raw = ns_pz, static]"
+    print(f"\n{name}: {steps} steps x {rounds} rounds (median){reference}")
     print(f"  {'case':36s} {'us/step':>9s} {'x raw':>7s}")
     for case, times in seconds.items():
         ratio = statistics.median(t / r for t, r in zip(times, seconds["raw"], strict=True))
