@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -41,6 +42,12 @@ def list_envs(out: Callable[[str], None] = print) -> None:
             )
 
 
+def show_envs(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``envs``: every registered environment and its θ."""
+    list_envs(out)
+    return EXIT_OK
+
+
 def _spec_names(names: Sequence[str]) -> list[str]:
     from ns_pz.experiments import shipped_specs
 
@@ -62,14 +69,20 @@ def _run_dirs(root: Path) -> list[Path]:
 
 def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench run``: load every spec first (so a bad one stops the run before any trial)."""
-    from ns_pz.experiments import load_spec, make_backend, run_spec
+    from ns_pz.experiments import SpecError, load_spec, make_backend, run_spec
+    from ns_pz.experiments.store import ResultStore
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
     backend = make_backend(args.backend, args.workers, args.address)
     root = Path(args.out)
+    targets = [root / f"{experiment.name}-{experiment.size}" for experiment in specs]
+    for target in targets:  # every directory is checked before any trial runs
+        if targets.count(target) > 1:
+            raise SpecError(f"two of the specs would write to {target}; name each spec once")
+    for experiment, target in zip(specs, targets, strict=True):
+        ResultStore(target).check(experiment, args.resume)
     failed = 0
-    for experiment in specs:
-        target = root / f"{experiment.name}-{experiment.size}"
+    for experiment, target in zip(specs, targets, strict=True):
         summary = run_spec(experiment, target, backend, resume=args.resume, progress=sys.stderr)
         failed += summary.failed
         out(f"\n{_tables(target, 'markdown')}\n")
@@ -197,33 +210,43 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
 
     parser = _parser()
     args = parser.parse_args(argv)
-    if args.command == "envs":
-        list_envs(out)
-        return EXIT_OK
-    if args.action in ("run", "estimate") and args.workers < 1:
+    action = "envs" if args.command == "envs" else args.action
+    if action in ("run", "estimate") and args.workers < 1:
         parser.error(f"--workers={args.workers} must be >= 1")
-    if args.action == "estimate" and args.samples < 1:
+    if action == "estimate" and args.samples < 1:
         parser.error(f"--samples={args.samples} must be >= 1")
-    handler = {
+    # Agents named "module:builder" may live beside the spec, as with `python -m`.
+    if os.getcwd() not in sys.path:
+        sys.path.insert(0, os.getcwd())
+    handlers: dict[str, Callable[[argparse.Namespace, Callable[[str], None]], int]] = {
+        "envs": show_envs,
         "run": bench_run,
         "table": bench_table,
         "plot": bench_plot,
         "list": bench_list,
         "estimate": bench_estimate,
     }
+    previous = signal.signal(signal.SIGTERM, _interrupt)  # a scheduler's stop, like Ctrl-C
     try:
-        return handler[args.action](args, out)
-    except (SpecError, FileNotFoundError, RuntimeError) as error:
-        print(f"ns-pz: error: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        return handlers[action](args, out)
     except BrokenPipeError:  # the reader went away (``ns-pz bench list | head``)
         sys.stderr.close()
         return EXIT_OK
+    except (SpecError, ValueError, OSError, RuntimeError) as error:
+        print(f"ns-pz: error: {error}", file=sys.stderr)
+        return EXIT_USAGE
     except KeyboardInterrupt:
         print(
             "\nns-pz: interrupted; finished trials are saved, --resume continues", file=sys.stderr
         )
         return EXIT_INTERRUPTED
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    """SIGTERM handler: stop as Ctrl-C does (finished trials are kept)."""
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":

@@ -32,3 +32,18 @@ def raises_on_cell(env: Any, *, cell: int = 8) -> FailsOnCell:
 def exits_on_cell(env: Any, *, cell: int = 8) -> FailsOnCell:
     """Kills its own process on ``cell``."""
     return FailsOnCell(env.family.action_space, cell, hard=True)
+
+
+class ExitsOnCell(FailsOnCell):
+    """Calls ``sys.exit`` on its cell, as a library's argument parser might."""
+
+    def act(self, observation: dict[str, Any], model: Any = None) -> int:
+        """Random, except on :attr:`cell`."""
+        if int(observation["state"]) == self.cell:
+            raise SystemExit(0)
+        return RandomAgent.act(self, observation, model)
+
+
+def exits_politely_on_cell(env: Any, *, cell: int = 8) -> FailsOnCell:
+    """Raises SystemExit on ``cell``."""
+    return ExitsOnCell(env.family.action_space, cell, hard=False)

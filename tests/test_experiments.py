@@ -145,6 +145,17 @@ def test_digest_changes_with_anything_that_changes_results(tmp_path: Path) -> No
             r"notifications: 'loud' is not a notification level",
         ),
         ("version = 1", "version = 7", r"version: 7; this ns_pz reads version 1"),
+        ("first_step = 1", "first_step = 30", r"change\.first_step: 30 is not before sizes"),
+        ('name = "tiny"', 'name = "../escape"', r"name: '\.\./escape' must be letters"),
+        ("episodes = 6", "episodes = -6", r"sizes\.full\.episodes: -6 must be an integer"),
+        (
+            "quick = { gamma = 0.9 }",
+            "quick = { gamma = 0.9 }\nfull = { gama = 0.9 }",
+            r"agents\[1\]\.full: .*'gama'",
+        ),
+        ('name = "random"', 'name = "random"\nparams = { gama = 1 }', r"agents\[0\]\.params"),
+        ("to = [0.4, 0.9]", "to = [0.4, 0.4]", r"change\.to: two settings are both labelled"),
+        ('label = "VI"', 'label = "random"', r"agents: two agents are labelled 'random'"),
     ],
 )
 def test_bad_specs_are_refused_naming_file_and_field(
@@ -168,6 +179,62 @@ def test_a_tabular_planner_on_cartpole_is_refused(tmp_path: Path) -> None:
     )
     with pytest.raises(SpecError, match=r"agents\[1\]\.name: .*outcome table"):
         load_spec(write_spec(tmp_path, text), "quick")
+
+
+def test_agents_that_cannot_act_in_the_env_are_refused_at_load(tmp_path: Path) -> None:
+    """MCTS needs discrete actions: on Pendulum it is refused before any trial runs."""
+    text = (
+        TINY.replace("ns_pz/FrozenLake-v0", "ns_pz/Pendulum-v0")
+        .replace("params = { slip = 0.7 }", "")
+        .replace('param = "slip"', 'param = "mass"')
+        .replace("to = [0.4, 0.9]", "to = [2.0]")
+        .replace('name = "random"', 'name = "mcts"')
+        .replace('name = "value_iteration"\nlabel = "VI"\nquick = { gamma = 0.9 }\n', "")
+    )
+    with pytest.raises(SpecError, match=r"agents\[0\]\.name: agent 'mcts' cannot act in"):
+        load_spec(write_spec(tmp_path, text), "quick")
+
+
+def test_continuous_change_by_zero_is_refused(tmp_path: Path) -> None:
+    """A continuous change that changes nothing is a mistake in the spec."""
+    text = TINY.replace('kind = "single"', 'kind = "continuous"').replace(
+        "to = [0.4, 0.9]", "by = 0.0"
+    )
+    with pytest.raises(SpecError, match=r"change\.by: 0\.0 must be a finite, non-zero number"):
+        load_spec(write_spec(tmp_path, text), "quick")
+
+
+def test_a_trial_that_calls_sys_exit_is_an_error_row(tmp_path: Path) -> None:
+    """SystemExit inside an agent cannot end the run silently."""
+    text = TINY.replace('name = "random"', 'name = "agents_for_tests:exits_politely_on_cell"')
+    experiment = load_spec(write_spec(tmp_path, text), "quick")
+    summary = run_spec(experiment, tmp_path / "out", LocalBackend(1))
+    rows = ResultStore(tmp_path / "out").rows()
+    assert summary.ran == len(rows) == 32 and summary.failed > 0
+    assert all("SystemExit" in r["error"] for r in rows if r["status"] == "error")
+
+
+def test_resume_refuses_trial_files_of_another_spec(tmp_path: Path) -> None:
+    """Trial files left by another spec (spec.json deleted) are never adopted."""
+    run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
+    (tmp_path / "out" / "spec.json").unlink()
+    other = load_spec(write_spec(tmp_path, TINY.replace("horizon = 30", "horizon = 10")))
+    with pytest.raises(SpecError, match="trial results but no spec.json"):
+        run_spec(other, tmp_path / "out", LocalBackend(1), resume=True)
+
+
+def test_cli_checks_every_output_directory_before_running(tmp_path: Path) -> None:
+    """With two specs, a foreign directory for the second stops the run before the first runs."""
+    first = write_spec(tmp_path, TINY.replace('name = "tiny"', 'name = "one"'), "one.toml")
+    second = write_spec(tmp_path, TINY.replace('name = "tiny"', 'name = "two"'), "two.toml")
+    out = tmp_path / "o"
+    assert main(["bench", "run", str(second), "--out", str(out), "--workers", "1"], print) == 0
+    changed = TINY.replace('name = "tiny"', 'name = "two"').replace("horizon = 30", "horizon = 9")
+    write_spec(tmp_path, changed, "two.toml")
+    code = main(["bench", "run", str(first), str(second), "--out", str(out)], print)
+    assert code == 2
+    assert not (out / "one-quick").exists()
+    assert main(["bench", "run", str(first), str(first), "--out", str(out)], print) == 2
 
 
 def test_unknown_spec_name_lists_shipped(tmp_path: Path) -> None:
@@ -257,7 +324,7 @@ def test_killed_run_resumes_losing_and_duplicating_nothing(tmp_path: Path) -> No
 def test_results_of_another_spec_are_refused(tmp_path: Path) -> None:
     """No silent mixing: a directory of another spec (or size) is refused, even on resume."""
     run_spec(load_spec(write_spec(tmp_path), "quick"), tmp_path / "out", LocalBackend(1))
-    with pytest.raises(SpecError, match="another spec"):
+    with pytest.raises(SpecError, match=r"a different spec .*: agents, episodes, size differ"):
         run_spec(
             load_spec(write_spec(tmp_path), "full"), tmp_path / "out", LocalBackend(1), resume=True
         )
@@ -288,14 +355,15 @@ def test_a_crashed_worker_is_recorded_and_the_pool_restarts(tmp_path: Path) -> N
     assert summary.ran == len(rows) == 32
     crashed = {r["trial"] for r in rows if r["status"] == "error"}
     assert all("worker process died" in r["error"] for r in rows if r["trial"] in crashed)
-    # Every trial that reaches the cell (the raising twin shows which) must be among them ...
+    assert crashed, "the agent should have killed some workers"
+    # Exactly the trials that reach the cell (the raising twin shows which) are lost ...
     twin = TINY.replace(
         'name = "random"', 'name = "agents_for_tests:raises_on_cell"\nlabel = "flaky"'
     )
     twin_spec = load_spec(write_spec(tmp_path, twin, "twin.toml"), "quick")
     run_spec(twin_spec, tmp_path / "twin", LocalBackend(1))
     twin_rows = ResultStore(tmp_path / "twin").rows()
-    assert {r["trial"] for r in twin_rows if r["status"] == "error"} <= crashed
+    assert {r["trial"] for r in twin_rows if r["status"] == "error"} == crashed
     # ... and every trial that finished is exactly what an undisturbed run gives.
     expected = {r["trial"]: r for r in without_times(twin_rows)}
     for row in without_times(rows):

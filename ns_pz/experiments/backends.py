@@ -9,6 +9,9 @@ extra (``pip install "ns_pz[ray]"``) and is imported only when chosen.
 from __future__ import annotations
 
 import multiprocessing
+import os
+import threading
+import time
 from abc import ABC, abstractmethod
 from collections.abc import Generator, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -31,9 +34,10 @@ class Backend(ABC):
 class LocalBackend(Backend):
     """A pool of ``workers`` processes on this machine (``workers=1``: in this process).
 
-    Workers are started with ``spawn`` (no state inherited from the parent). If a worker dies
-    (killed, out of memory, a crash in compiled code), its trials are recorded as errors and the
-    pool is restarted for the rest.
+    Workers are started with ``spawn`` (no state inherited from the parent) and end themselves if
+    the parent dies. If a worker dies (killed, out of memory, a crash in compiled code), the
+    trials that were in flight are re-run one at a time in a fresh process, so only the one
+    that kills its worker again is recorded as an error; the pool restarts for the rest.
     """
 
     def __init__(self, workers: int) -> None:
@@ -49,20 +53,31 @@ class LocalBackend(Backend):
             return
         remaining = list(trials)
         while remaining:
-            remaining = yield from self._pool_run(spec, remaining)
+            remaining, suspects = yield from self._pool_run(spec, remaining, self.workers)
+            for trial in suspects:  # one at a time, so only the culprit is blamed
+                _, lost = yield from self._pool_run(spec, [trial], 1)
+                for culprit in lost:
+                    yield culprit, error_row(spec, culprit, "its worker process died")
 
     def _pool_run(
-        self, spec: ExperimentSpec, trials: list[Trial]
-    ) -> Generator[tuple[Trial, dict], None, list[Trial]]:
-        """Run until done or the pool breaks; return the trials that never started."""
+        self, spec: ExperimentSpec, trials: list[Trial], workers: int
+    ) -> Generator[tuple[Trial, dict], None, tuple[list[Trial], list[Trial]]]:
+        """Run until done or the pool breaks.
+
+        Returns:
+            ``(not started, in flight when the pool broke)``: both empty after a clean run.
+        """
         context = multiprocessing.get_context("spawn")
-        pool = ProcessPoolExecutor(self.workers, mp_context=context)
+        pool = ProcessPoolExecutor(
+            workers, mp_context=context, initializer=_die_with_parent, initargs=(os.getpid(),)
+        )
         pending: dict[Future[dict], Trial] = {}
         queue = list(reversed(trials))
+        clean = False
         try:
             while queue or pending:
                 broken = False
-                while queue and len(pending) < 2 * self.workers and not broken:
+                while queue and len(pending) < 2 * workers and not broken:
                     try:
                         pending[pool.submit(run_trial, spec, queue[-1])] = queue[-1]
                         queue.pop()
@@ -70,21 +85,31 @@ class LocalBackend(Backend):
                         broken = True
                 done, _ = wait(pending, return_when=FIRST_COMPLETED) if pending else (set(), set())
                 for future in done:
-                    trial = pending.pop(future)
-                    try:
-                        row = future.result()
-                    except BrokenProcessPool:
+                    if isinstance(future.exception(), BrokenProcessPool):
                         broken = True
-                        row = error_row(spec, trial, "a worker process died")
-                    yield trial, row
+                        continue
+                    yield pending.pop(future), future.result()
                 if broken:
-                    # Which pending trial killed the pool cannot be known: all are recorded.
-                    for trial in pending.values():
-                        yield trial, error_row(spec, trial, "a worker process died")
-                    return list(reversed(queue))
+                    # A worker died: which in-flight trial killed it cannot be known here.
+                    return list(reversed(queue)), list(pending.values())
+            clean = True
         finally:
-            pool.shutdown(wait=True, cancel_futures=True)
-        return []
+            if not clean:  # interrupted or broken: stop the workers now, do not wait for them
+                for process in list(getattr(pool, "_processes", {}).values()):
+                    process.terminate()
+            pool.shutdown(wait=clean, cancel_futures=True)
+        return [], []
+
+
+def _die_with_parent(parent: int) -> None:
+    """Pool initializer: end this worker if the process that started it goes away (kill -9)."""
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(1.0)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
 
 
 class RayBackend(Backend):
@@ -92,8 +117,8 @@ class RayBackend(Backend):
 
     Args:
         workers: CPUs of the local Ray instance (ignored when joining a cluster).
-        address: A running cluster (``"auto"``, ``"ray://host:10001"``); ``None`` starts Ray on
-            this machine for the run.
+        address: A running cluster (``"auto"``, ``"ray://host:10001"``); ``None`` joins the
+            cluster of ``RAY_ADDRESS`` if that is set, else starts Ray on this machine.
     """
 
     def __init__(self, workers: int, address: str | None = None) -> None:
@@ -112,10 +137,12 @@ class RayBackend(Backend):
             ) from None
         started_here = not ray.is_initialized()
         if started_here:
-            if self.address is None:
-                ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False)
-            else:
+            if self.address is not None:
                 ray.init(address=self.address, log_to_driver=False)
+            elif os.environ.get("RAY_ADDRESS"):  # inside `ray job submit` or a configured cluster
+                ray.init(log_to_driver=False)
+            else:
+                ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False)
         try:
             remote = ray.remote(run_trial)
             spec_ref = ray.put(spec)

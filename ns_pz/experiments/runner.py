@@ -49,7 +49,7 @@ def run_spec(
     store = ResultStore(out)
     store.prepare(spec, resume)
     trials = expand(spec)
-    finished = store.finished()
+    finished = store.finished(spec.digest())
     todo = [trial for trial in trials if trial.key not in finished]
     bar = None
     if progress is not None:

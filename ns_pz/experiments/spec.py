@@ -42,6 +42,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -49,6 +50,9 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
+from ns_pz import __version__
 from ns_pz.agents.catalog import agent_entry, is_tabular
 from ns_pz.envs.registry import make_gym, spec
 from ns_pz.monitor.notification import NotificationLevel
@@ -159,6 +163,7 @@ class ExperimentSpec:
         """Everything that determines the results (not where the spec was read from)."""
         return {
             "version": SPEC_VERSION,
+            "ns_pz": __version__,
             "name": self.name,
             "title": self.title,
             "size": self.size,
@@ -294,6 +299,11 @@ class ExperimentSpec:
         return params_cls.spec(self.change.param).kind == SIMPLEX
 
 
+def slug(text: str) -> str:
+    """``text`` as a file-name-safe piece of a trial key."""
+    return re.sub(r"[^A-Za-z0-9.=]+", "_", text).strip("_") or "x"
+
+
 def _label_value(value: Any) -> str:
     if isinstance(value, (list, tuple)):
         return "[" + ",".join(f"{v:g}" for v in value) + "]"
@@ -397,8 +407,10 @@ class _Checker:
                 "version", f"{raw['version']!r}; this ns_pz reads version {SPEC_VERSION}"
             )
         name = raw["name"]
-        if not isinstance(name, str) or not name:
-            raise self.fail("name", f"{name!r} must be a non-empty string")
+        if not isinstance(name, str) or not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9._-]*", name):
+            raise self.fail(
+                "name", f"{name!r} must be letters, digits, '.', '_' or '-' (it names a folder)"
+            )
         env_id = self.env(raw["env"])
         env_kwargs = raw.get("env_kwargs", {})
         self.fields("env_kwargs", env_kwargs, set(env_kwargs), set())
@@ -414,10 +426,20 @@ class _Checker:
         self.fields("sizes", sizes, set(SIZES), set())
         if size not in sizes:
             raise self.fail("sizes", f"has no {size!r} size; it has: {', '.join(sizes)}")
-        self.fields(f"sizes.{size}", sizes[size], _SIZE_FIELDS, {"episodes", "horizon"})
-        episodes = self.integer(f"sizes.{size}.episodes", sizes[size]["episodes"], 1)
-        horizon = self.integer(f"sizes.{size}.horizon", sizes[size]["horizon"], 1)
-        first_seed = self.integer(f"sizes.{size}.first_seed", sizes[size].get("first_seed", 0), 0)
+        for each in sizes:  # every size is checked, not only the one that runs now
+            self.fields(f"sizes.{each}", sizes[each], _SIZE_FIELDS, {"episodes", "horizon"})
+            self.integer(f"sizes.{each}.episodes", sizes[each]["episodes"], 1)
+            each_horizon = self.integer(f"sizes.{each}.horizon", sizes[each]["horizon"], 1)
+            self.integer(f"sizes.{each}.first_seed", sizes[each].get("first_seed", 0), 0)
+            if change.kind != "none" and change.first_step >= each_horizon:
+                raise self.fail(
+                    "change.first_step",
+                    f"{change.first_step} is not before sizes.{each}.horizon = {each_horizon}: "
+                    "no change would ever happen",
+                )
+        episodes = sizes[size]["episodes"]
+        horizon = sizes[size]["horizon"]
+        first_seed = sizes[size].get("first_seed", 0)
         agents = raw["agents"]
         if not isinstance(agents, list) or not agents:
             raise self.fail("agents", "must be a non-empty array of tables ([[agents]])")
@@ -444,12 +466,18 @@ class _Checker:
             self.agent(f"agents[{i}]", a, size, notifications, probe_env)
             for i, a in enumerate(agents)
         )
-        labels = [a.label for a in checked]
-        for label in labels:
-            if labels.count(label) > 1:
+        keys = [slug(a.label) for a in checked]
+        for agent, key in zip(checked, keys, strict=True):
+            if keys.count(key) > 1:
                 raise self.fail(
-                    "agents", f"two agents are labelled {label!r}; give each a distinct label"
+                    "agents",
+                    f"two agents are labelled {agent.label!r} (or labels that differ only in "
+                    "punctuation); give each a distinct label",
                 )
+        settings = result.settings()
+        for setting in settings:
+            if settings.count(setting) > 1:
+                raise self.fail("change.to", f"two settings are both labelled {setting!r}")
         return ExperimentSpec(**{**result.__dict__, "agents": checked})
 
     def env(self, env_id: Any) -> str:
@@ -502,8 +530,13 @@ class _Checker:
                     raise self.fail(f"change.to[{i}]", str(error)) from None
             return Change(kind, name, first_step, to=tuple(values))
         by = raw["by"]
-        if isinstance(by, bool) or not isinstance(by, (int, float)) or not math.isfinite(by):
-            raise self.fail("change.by", f"{by!r} must be a finite number")
+        if (
+            isinstance(by, bool)
+            or not isinstance(by, (int, float))
+            or not math.isfinite(by)
+            or by == 0
+        ):
+            raise self.fail("change.by", f"{by!r} must be a finite, non-zero number")
         steps = raw.get("steps")
         if steps is not None:
             steps = self.integer("change.steps", steps, 1)
@@ -522,16 +555,24 @@ class _Checker:
             entry = agent_entry(raw["name"])
         except ValueError as error:
             raise self.fail(f"{where}.name", str(error)) from None
-        hyper = dict(raw.get("params", {}))
-        self.fields(f"{where}.params", hyper, set(hyper), set())
-        sized = raw.get(size, {})
-        self.fields(f"{where}.{size}", sized, set(sized), set())
-        hyper.update(sized)
-        field = f"{where}.{size}" if sized else f"{where}.params"
+        common = raw.get("params", {})
+        self.fields(f"{where}.params", common, set(common), set())
+        for field in ("params", *SIZES):  # each table on its own, every size
+            table = raw.get(field, {})
+            self.fields(f"{where}.{field}", table, set(table), set())
+            try:
+                entry.check_names(table)
+            except ValueError as error:
+                raise self.fail(f"{where}.{field}", str(error)) from None
+        hyper = {**common, **raw.get(size, {})}
+        field = f"{where}.{size}" if raw.get(size) else f"{where}.params"
         try:
-            entry.check_names(hyper)
-        except ValueError as error:
-            raise self.fail(field, str(error)) from None
+            json.dumps(hyper, allow_nan=False)
+        except (TypeError, ValueError) as error:
+            raise self.fail(
+                field,
+                f"hyper-parameters must be numbers, strings, booleans or lists of them: {error}",
+            ) from None
         if entry.tabular_only and not is_tabular(probe_env):
             raise self.fail(
                 f"{where}.name",
@@ -539,7 +580,16 @@ class _Checker:
                 f"{probe_env.family!r} cannot give; use it on a tabular env (FrozenLake, "
                 "CliffWalking, Bridge)",
             )
-        agent_levels = self.levels(f"{where}.notifications", raw.get("notifications", levels))
+        default_levels = [level for level in levels if level in entry.levels]
+        if not default_levels:
+            raise self.fail(
+                f"{where}.name",
+                f"agent {entry.name!r} runs at {sorted(entry.levels)} only; the spec has "
+                f"{list(levels)}",
+            )
+        agent_levels = self.levels(
+            f"{where}.notifications", raw.get("notifications", default_levels)
+        )
         for level in agent_levels:
             if level not in levels:
                 raise self.fail(
@@ -551,11 +601,32 @@ class _Checker:
                     f"{where}.notifications",
                     f"agent {entry.name!r} runs at {sorted(entry.levels)} only, not {level!r}",
                 )
-        try:
-            entry.make(probe_env, hyper)
-        except (TypeError, ValueError) as error:
-            raise self.fail(field, str(error)) from None
+        self.try_agent(where, field, entry, hyper, probe_env)
         label = raw.get("label", entry.name)
         if not isinstance(label, str) or not label:
             raise self.fail(f"{where}.label", f"{label!r} must be a non-empty string")
-        return AgentSpec(entry.name, label, hyper, agent_levels)
+        resolved = {**entry.defaults(), **hyper}
+        try:
+            json.dumps(resolved, allow_nan=False)
+        except (TypeError, ValueError):
+            resolved = dict(hyper)  # a default that is not data (a callable): record the given
+        return AgentSpec(entry.name, label, resolved, agent_levels)
+
+    def try_agent(
+        self, where: str, field: str, entry: Any, hyper: Mapping[str, Any], env: NSGymEnv
+    ) -> None:
+        """Build the agent and let it act once, so an agent that cannot run here fails now."""
+        try:
+            agent = entry.make(env, hyper)
+        except (TypeError, ValueError) as error:
+            raise self.fail(field, str(error)) from None
+        try:
+            observation, _ = env.reset(seed=0)
+            agent.reset(np.random.default_rng(0))
+            agent.act(observation, env.planning_model() if agent.needs_model else None)
+        except Exception as error:  # noqa: BLE001 - any failure means it cannot run here
+            raise self.fail(
+                f"{where}.name",
+                f"agent {entry.name!r} cannot act in {env.family!r}: "
+                f"{type(error).__name__}: {error}",
+            ) from None

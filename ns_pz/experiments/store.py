@@ -33,29 +33,42 @@ class ResultStore:
         self.trials_dir = self.root / "trials"
 
     # -- setup ---------------------------------------------------------------------------
-    def prepare(self, spec: ExperimentSpec, resume: bool) -> None:
-        """Make the directory ready for ``spec``.
+    def check(self, spec: ExperimentSpec, resume: bool) -> None:
+        """Refuse a directory that cannot take ``spec``'s results; write nothing.
 
         Raises:
-            SpecError: The directory holds results of another spec, or results of this spec
-                while ``resume`` is off (nothing is ever mixed or silently overwritten).
+            SpecError: The directory holds results of another spec, trial files without a
+                spec.json, or results of this spec while ``resume`` is off (nothing is ever
+                mixed or silently overwritten); or ``root`` is a file.
         """
+        if self.root.exists() and not self.root.is_dir():
+            raise SpecError(f"--out {self.root} is a file, not a directory")
         meta = self.root / "spec.json"
-        if meta.exists():
-            stored = json.loads(meta.read_text())
-            if stored.get("digest") != spec.digest():
+        if not meta.exists():
+            if any(self.trials_dir.glob("*.json")):
                 raise SpecError(
-                    f"{self.root} holds results of another spec ({stored.get('name')!r}, "
-                    f"size {stored.get('spec', {}).get('size')!r}, digest {stored.get('digest')}"
-                    f"); this is {spec.name!r} size {spec.size!r} digest {spec.digest()}. "
-                    "Use another --out directory."
+                    f"{self.root} holds trial results but no spec.json; use another --out"
                 )
-            if not resume and any(self.trials_dir.glob("*.json")):
-                raise SpecError(
-                    f"{self.root} already holds results of this spec; pass --resume to finish "
-                    "it, or use another --out directory"
-                )
+            return
+        stored = json.loads(meta.read_text())
+        if stored.get("digest") != spec.digest():
+            raise SpecError(
+                f"{self.root} holds results of a different spec (digest "
+                f"{stored.get('digest')}; this {spec.name!r} at size {spec.size!r} is "
+                f"{spec.digest()}: {_difference(stored.get('spec', {}), spec.to_dict())}). "
+                "Use another --out directory."
+            )
+        if not resume and any(self.trials_dir.glob("*.json")):
+            raise SpecError(
+                f"{self.root} already holds results of this spec; pass --resume to finish "
+                "it, or use another --out directory"
+            )
+
+    def prepare(self, spec: ExperimentSpec, resume: bool) -> None:
+        """:meth:`check`, then make the directory ready for ``spec``."""
+        self.check(spec, resume)
         self.trials_dir.mkdir(parents=True, exist_ok=True)
+        meta = self.root / "spec.json"
         record = {"name": spec.name, "digest": spec.digest(), "spec": spec.to_dict()}
         _write_atomic(meta, json.dumps(record, indent=2, sort_keys=True))
 
@@ -71,9 +84,22 @@ class ResultStore:
         return json.loads(meta.read_text())
 
     # -- trials ----------------------------------------------------------------------------
-    def finished(self) -> set[str]:
-        """Keys of the trials that have a result with status ``ok``."""
-        return {row["trial"] for row in self.rows() if row["status"] == "ok"}
+    def finished(self, digest: str) -> set[str]:
+        """Keys of the trials of the spec with ``digest`` that have a result with status ``ok``.
+
+        Raises:
+            SpecError: A trial file belongs to another spec.
+        """
+        done = set()
+        for row in self.rows():
+            if row["spec_hash"] != digest:
+                raise SpecError(
+                    f"{self.root}/trials/{row['trial']}.json belongs to spec {row['spec_hash']}, "
+                    f"not {digest}; use another --out directory"
+                )
+            if row["status"] == "ok":
+                done.add(row["trial"])
+        return done
 
     def write(self, row: dict[str, Any]) -> None:
         """Store one trial's row (atomically)."""
@@ -101,6 +127,12 @@ class ResultStore:
             os.fsync(handle.fileno())
         os.replace(handle.name, path)
         return path
+
+
+def _difference(old: dict[str, Any], new: dict[str, Any]) -> str:
+    """The top-level fields that differ between two spec records."""
+    fields = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+    return f"{', '.join(fields)} differ" if fields else "same fields, another ns_pz version"
 
 
 def _write_atomic(path: Path, text: str) -> None:

@@ -8,7 +8,6 @@ worker runs it, and in what order, changes nothing but the wall time.
 from __future__ import annotations
 
 import json
-import re
 import time
 import traceback
 from dataclasses import dataclass
@@ -16,7 +15,7 @@ from typing import Any
 
 from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.evaluation import run_episode
-from ns_pz.experiments.spec import LEVEL_LABELS, AgentSpec, Cell, ExperimentSpec
+from ns_pz.experiments.spec import LEVEL_LABELS, AgentSpec, Cell, ExperimentSpec, slug
 
 #: Columns of a result row, in order.
 COLUMNS = (
@@ -57,8 +56,8 @@ def expand(spec: ExperimentSpec) -> list[Trial]:
             if cell.notification not in agent.notifications:
                 continue
             for seed in spec.seeds():
-                key = f"{cell.index:02d}-{_slug(cell.setting)}-{cell.notification}-"
-                key += f"{_slug(agent.label)}-s{seed}"
+                key = f"{cell.index:02d}-{slug(cell.setting)}-{cell.notification}-"
+                key += f"{slug(agent.label)}-s{seed}"
                 trials.append(Trial(key, cell, agent, seed))
     return trials
 
@@ -98,15 +97,17 @@ def run_trial(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
         env = spec.make_env(trial.cell)
         agent = agent_entry(trial.agent.name).make(env, trial.agent.hyper)
         episode = run_episode(env, agent, trial.seed)
-    except Exception as error:  # noqa: BLE001 - recorded in the row; the run goes on
+    except KeyboardInterrupt:
+        raise
+    except BaseException as error:  # noqa: BLE001 - SystemExit too: recorded, the run goes on
         message = "".join(traceback.format_exception_only(error)).strip()
-        return {**error_row(spec, trial, message), "wall_time": time.perf_counter() - start}
+        return {
+            **error_row(spec, trial, message),
+            "wall_time": time.perf_counter() - start,
+            "traceback": traceback.format_exc(),  # kept in the trial file, not in the CSV
+        }
     row["return"] = episode.episode_return
     row["length"] = episode.length
     row["wall_time"] = time.perf_counter() - start
     row["change_times"] = json.dumps(list(episode.change_times))
     return row
-
-
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9.=]+", "_", text).strip("_") or "x"
