@@ -215,9 +215,10 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
         parser.error(f"--workers={args.workers} must be >= 1")
     if action == "estimate" and args.samples < 1:
         parser.error(f"--samples={args.samples} must be >= 1")
-    # Agents named "module:builder" may live beside the spec, as with `python -m`.
+    # Agents named "module:builder" may live in the working directory. It goes last on the
+    # path, so a source checkout there never shadows the installed ns_pz (workers inherit it).
     if os.getcwd() not in sys.path:
-        sys.path.insert(0, os.getcwd())
+        sys.path.append(os.getcwd())
     handlers: dict[str, Callable[[argparse.Namespace, Callable[[str], None]], int]] = {
         "envs": show_envs,
         "run": bench_run,
