@@ -8,15 +8,20 @@ extra (``pip install "ns_pz[ray]"``) and is imported only when chosen.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import tempfile
 import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Generator, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
+from typing import Any
 
+import ns_pz
 from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.trials import Trial, error_row, run_trial
 
@@ -137,12 +142,8 @@ class RayBackend(Backend):
             ) from None
         started_here = not ray.is_initialized()
         if started_here:
-            if self.address is not None:
-                ray.init(address=self.address, log_to_driver=False)
-            elif os.environ.get("RAY_ADDRESS"):  # inside `ray job submit` or a configured cluster
-                ray.init(log_to_driver=False)
-            else:
-                ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False)
+            with _away_from_a_shadowing_checkout():
+                self._init(ray)
         try:
             remote = ray.remote(run_trial)
             spec_ref = ray.put(spec)
@@ -159,6 +160,34 @@ class RayBackend(Backend):
         finally:
             if started_here:
                 ray.shutdown()
+
+    def _init(self, ray: Any) -> None:
+        if self.address is not None:
+            ray.init(address=self.address, log_to_driver=False)
+        elif os.environ.get("RAY_ADDRESS"):  # inside `ray job submit` or a configured cluster
+            ray.init(log_to_driver=False)
+        else:
+            ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False)
+
+
+@contextlib.contextmanager
+def _away_from_a_shadowing_checkout() -> Iterator[None]:
+    """Start Ray outside a source checkout of ns_pz other than the one running.
+
+    Ray puts the driver's working directory first on its workers' ``sys.path``; run from a
+    checkout while an installed ns_pz is the one in use, the workers would import the
+    checkout's uninstalled tree instead (which has no ``ns_pz.envs``).
+    """
+    here = Path.cwd()
+    running = Path(ns_pz.__file__).resolve().parent
+    shadowing = (here / "ns_pz" / "__init__.py").is_file() and running != (here / "ns_pz").resolve()
+    if shadowing:
+        os.chdir(tempfile.gettempdir())
+    try:
+        yield
+    finally:
+        if shadowing:
+            os.chdir(here)
 
 
 def make_backend(name: str, workers: int, address: str | None = None) -> Backend:
