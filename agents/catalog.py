@@ -82,9 +82,9 @@ class AgentEntry:
         return self.build(env, **hyper)
 
 
-def is_tabular(env: NSGymEnv) -> bool:
-    """Whether the env's family hands out explicit outcome tables."""
-    return callable(getattr(env.family, "outcomes", None))
+def is_tabular(family: object) -> bool:
+    """Whether a family (instance or class) hands out explicit outcome tables."""
+    return callable(getattr(family, "outcomes", None))
 
 
 def _random(env: NSGymEnv) -> Agent:

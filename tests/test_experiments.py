@@ -78,8 +78,15 @@ def test_shipped_specs_load_at_both_sizes(name: str, size: str) -> None:
     experiment = load_spec(name, size)
     assert experiment.size == size
     trials = expand(experiment)
-    per_agent_cell = experiment.episodes
-    assert len(trials) % per_agent_cell == 0 and trials
+    runs = sum(
+        1
+        for cell in experiment.cells()
+        for a in experiment.agents
+        if cell.notification in a.notifications
+    )
+    assert runs >= 2 * len(experiment.agents) - 1  # every agent runs; ADA-MCTS at one level
+    assert len(trials) == runs * experiment.episodes
+    assert len({t.key for t in trials}) == len(trials)
 
 
 def test_spec_expands_cells_agents_and_seeds(tmp_path: Path) -> None:

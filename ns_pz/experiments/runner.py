@@ -99,8 +99,8 @@ def estimate(spec: ExperimentSpec, samples: int = 2) -> list[CellCost]:
         raise ValueError(f"samples={samples!r} must be an integer >= 1")
     groups: dict[tuple[int, str, str], list] = {}
     for trial in expand(spec):
-        groups.setdefault((trial.cell.index, trial.cell.notification, trial.agent.label), [])
-        groups[(trial.cell.index, trial.cell.notification, trial.agent.label)].append(trial)
+        key = (trial.cell.index, trial.cell.notification, trial.agent.label)
+        groups.setdefault(key, []).append(trial)
     costs = []
     for trials in groups.values():
         times = []

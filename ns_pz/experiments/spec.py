@@ -292,7 +292,7 @@ class ExperimentSpec:
 
     def is_tabular(self) -> bool:
         """Whether the env hands out explicit outcome tables."""
-        return callable(getattr(spec(self.env).family, "outcomes", None))
+        return is_tabular(spec(self.env).family)
 
     def _is_vector(self) -> bool:
         params_cls = spec(self.env).family.params_cls
@@ -573,7 +573,7 @@ class _Checker:
                 field,
                 f"hyper-parameters must be numbers, strings, booleans or lists of them: {error}",
             ) from None
-        if entry.tabular_only and not is_tabular(probe_env):
+        if entry.tabular_only and not is_tabular(probe_env.family):
             raise self.fail(
                 f"{where}.name",
                 f"agent {entry.name!r} plans on an explicit outcome table, which "
