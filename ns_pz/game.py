@@ -2,17 +2,27 @@
 
 Each time step ``t``:
 
-1. ``nature`` observes ``[t, θ_{t-1} (flat), budget_left]`` and acts with Δθ (zero: no change).
-   The game projects θ_{t-1} + Δθ onto the allowed set (bounds, Lipschitz bound, budget): θ_t.
-2. ``monitor`` observes the last transition and acts with the notification for the agent
-   (``env_change`` flags and ``delta_change`` sizes), masked to the game's level.
+1. ``nature`` observes its encoding of ``(t, θ_{t-1} against θ_0, budgets left)`` (and, with
+   ``nature_observes_state=True``, the agent's state and last action; see
+   :mod:`ns_pz.nature.interface`) and acts: with Δθ (``nature_action="delta"``, the default) or
+   with ``Box(-1, 1)`` per parameter scaled to its per-step allowance (``"normalized"``); zero
+   means no change. The game projects the proposal onto the allowed set (bounds, Lipschitz
+   bounds, budgets): θ_t.
+2. ``monitor`` observes the last transition and acts with the notification for the agent: a
+   ``Dict`` of ``env_change`` flags and ``delta_change`` sizes (``monitor_action="dict"``) or the
+   flags alone as ``MultiDiscrete([2] * n)`` (``"flags"``, for libraries that refuse ``Dict``
+   actions), masked to the game's level.
 3. ``agent`` observes the state with that notification and acts; the base environment makes one
    transition under θ_t, and every agent is rewarded: the agent gets r_t, nature -r_t
-   (``nature_reward="zero_sum"``, the default) or r_t (``"cooperative"``), the monitor 0.
+   (``nature_reward="zero_sum"``, the default), r_t (``"cooperative"``), 0 (``"none"``) or its
+   regret (``"regret"``: -r_t each step, and at the end of the episode the value a reference
+   earns against the same θ trajectory, see :mod:`ns_pz.regret`); the monitor 0.
 
-The episode ends for all three together when the base environment terminates or the time limit
-truncates. :meth:`NSGame.policy_action` gives the action of the configured nature and monitor
-policies, so any subset of the agents can be scripted while the others learn.
+The order lives in :class:`~ns_pz.process.NSProcess`, which the Gymnasium view and the learner
+environments drive too. The episode ends for all three together when the base environment
+terminates or the time limit truncates. :meth:`NSGame.policy_action` gives the action of the
+configured nature and monitor policies (the same answer however often it is asked within a
+turn), so any subset of the agents can be scripted while the others learn.
 """
 
 from __future__ import annotations
@@ -24,27 +34,33 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv
 
+from ns_pz.errors import ResetNeeded
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import Monitor
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.nature.constraints import NatureConstraints
 from ns_pz.nature.policies import Nature
 from ns_pz.observations import (
-    ObservationBuilder,
     agent_observation_space,
     monitor_action_space,
+    monitor_flags_space,
     monitor_observation_space,
-    nature_action_space,
-    nature_observation_space,
 )
-from ns_pz.params import SIMPLEX, Params
-from ns_pz.process import GroundTruth, NSProcess, mask_notification
+from ns_pz.params import Params
+from ns_pz.process import (
+    AGENTS,
+    DECISION,
+    MONITOR,
+    NATURE,
+    GroundTruth,
+    NSProcess,
+    check_seed,
+)
+from ns_pz.regret import NATURE_REWARDS, NatureReward, RegretReference
 
-NATURE = "nature"
-MONITOR = "monitor"
-DECISION = "agent"
-AGENTS = (NATURE, MONITOR, DECISION)
-NATURE_REWARDS = ("zero_sum", "cooperative", "none")
+MONITOR_ACTIONS = ("dict", "flags")
+
+__all__ = ["AGENTS", "DECISION", "MONITOR", "NATURE", "NATURE_REWARDS", "NSGame"]
 
 
 class NSGame(AECEnv):
@@ -53,12 +69,17 @@ class NSGame(AECEnv):
     Args:
         family: The environment family.
         params: θ_0 (a parameter set or a mapping of names to values).
-        nature: The scripted nature policy :meth:`policy_action` follows (default: static).
-        monitor: The monitor policy :meth:`policy_action` follows (default: oracle).
+        nature: The nature :meth:`policy_action` follows (default: static).
+        monitor: The monitor :meth:`policy_action` follows (default: oracle).
         notification: ``"none"``, ``"basic"`` or ``"detailed"``: what reaches the agent.
-        constraints: Lipschitz bound and budget enforced on every nature action.
+        constraints: Lipschitz bounds and budgets enforced on every nature action.
         max_episode_steps: Time steps after which all agents are truncated.
-        nature_reward: ``"zero_sum"`` (-r), ``"cooperative"`` (+r) or ``"none"`` (0).
+        nature_reward: ``"zero_sum"`` (-r), ``"cooperative"`` (+r), ``"none"`` (0) or
+            ``"regret"`` (needs ``regret_reference``).
+        regret_reference: What nature's regret is measured against (``"regret"`` only).
+        nature_action: ``"delta"`` (Δθ) or ``"normalized"`` (``Box(-1, 1)`` per allowance).
+        nature_observes_state: Add the agent's state and last action to nature's observation.
+        monitor_action: ``"dict"`` (flags and sizes) or ``"flags"`` (``MultiDiscrete``).
     """
 
     metadata: dict[str, Any] = {
@@ -78,10 +99,14 @@ class NSGame(AECEnv):
         constraints: NatureConstraints | None = None,
         max_episode_steps: int | None = 500,
         nature_reward: str = "zero_sum",
+        regret_reference: RegretReference | None = None,
+        nature_action: str = "delta",
+        nature_observes_state: bool = False,
+        monitor_action: str = "dict",
     ) -> None:
         super().__init__()
         self.render_mode = None
-        self._process = NSProcess(
+        self._process = process = NSProcess(
             family,
             params=params,
             nature=nature,
@@ -90,34 +115,28 @@ class NSGame(AECEnv):
             constraints=constraints,
             max_episode_steps=max_episode_steps,
         )
-        if nature_reward not in NATURE_REWARDS:
-            raise ValueError(f"nature_reward={nature_reward!r}; allowed: {NATURE_REWARDS}")
-        self._nature_sign = {"zero_sum": -1.0, "cooperative": 1.0, "none": 0.0}[nature_reward]
-        self._build = ObservationBuilder(family)
+        self._nature_reward = NatureReward(nature_reward, regret_reference)
+        if monitor_action not in MONITOR_ACTIONS:
+            raise ValueError(f"monitor_action={monitor_action!r}; allowed: {MONITOR_ACTIONS}")
+        self._monitor_flags_only = monitor_action == "flags"
+        self._nature = process.nature_interface(nature_action, nature_observes_state)
         params_cls = family.params_cls
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
         self.observation_spaces = {
-            NATURE: nature_observation_space(params_cls),
+            NATURE: self._nature.observation_space,
             MONITOR: monitor_observation_space(family),
             DECISION: agent_observation_space(family),
         }
-        self._nature_space = nature_action_space(params_cls)
         self.action_spaces: dict[str, spaces.Space[Any]] = {
-            NATURE: self._nature_space,
-            MONITOR: monitor_action_space(params_cls),
+            NATURE: self._nature.action_space,
+            MONITOR: monitor_flags_space(params_cls)
+            if self._monitor_flags_only
+            else monitor_action_space(params_cls),
             DECISION: family.action_space,
         }
-        low, high = self._nature_space.low, self._nature_space.high
-        self._delta_bounds = tuple(zip(low.tolist(), high.tolist(), strict=True))
-        self._uniform_bounds = self._delta_bounds[0] if len(set(self._delta_bounds)) == 1 else None
-        self._flat_layout = [
-            (spec.name, spec.kind == SIMPLEX, start, stop)
-            for spec, start, stop in params_cls.flat_layout()
-        ]
-        self._notification: tuple[tuple, tuple] = (self._process.no_change,) * 2
         self._rewarded = False
-        self._scripted: tuple[np.ndarray, list, Any] | None = None
+        self._scripted: tuple[np.ndarray, list, Any, int] | None = None
         # Before the first reset: calls meet ResetNeeded, not missing attributes.
         self.agent_selection = NATURE
         self.rewards: dict[str, float] = {}
@@ -128,18 +147,27 @@ class NSGame(AECEnv):
 
     def observation_space(self, agent: str) -> spaces.Space[Any]:
         """The (always identical) observation space of ``agent``."""
-        return self.observation_spaces[agent]
+        return self.observation_spaces[_check_agent(agent)]
 
     def action_space(self, agent: str) -> spaces.Space[Any]:
         """The (always identical) action space of ``agent``."""
-        return self.action_spaces[agent]
+        return self.action_spaces[_check_agent(agent)]
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
-        """Start an episode; a seed reseeds the environment, nature, monitor and planning."""
+        """Start an episode; a seed reseeds the environment, nature, monitor and planning.
+
+        Args:
+            seed: A non-negative int, or ``None`` to go on with the current generators.
+            options: ``{"params": θ_0}`` starts this episode from another θ_0.
+
+        Raises:
+            TypeError / ValueError: A bad seed or an unknown option.
+        """
         process = self._process
+        seed = check_seed(seed)
         if seed is not None or process.env_rng is None:
             process.seed(seed)
-        process.reset()
+        process.reset(options)
         self.agents = list(AGENTS)
         self.rewards = dict.fromkeys(AGENTS, 0.0)
         self._cumulative_rewards = dict.fromkeys(AGENTS, 0.0)
@@ -147,7 +175,6 @@ class NSGame(AECEnv):
         self.truncations = dict.fromkeys(AGENTS, False)
         self.infos = {agent: {} for agent in AGENTS}
         self.agent_selection = NATURE
-        self._notification = (process.no_change, process.no_change)
         self._rewarded = False
         self._scripted = None
 
@@ -156,15 +183,25 @@ class NSGame(AECEnv):
         process = self._process
         if not process.started:
             process.check_running("observe()")
-        if agent == NATURE:
-            return self._build.nature(process.t, process.theta, process.budget_left)
-        if agent == MONITOR:
-            return self._build.monitor(process)
         if agent == DECISION:
-            flags, sizes = self._notification
-            quiet = flags is process.no_change and sizes is process.no_change
-            return self._build.agent(process.state, process.t, flags, sizes, quiet)
+            return process.agent_observation()
+        if agent == NATURE:
+            return self._nature.observe(process)
+        if agent == MONITOR:
+            return process.build.monitor(process)
         raise ValueError(f"agent={agent!r} is not one of {AGENTS}")
+
+    def last(self, observe: bool = True) -> tuple[Any, float, bool, bool, dict[str, Any]]:
+        """PettingZoo's ``last()``; after the episode has ended for every agent it says so.
+
+        Raises:
+            ResetNeeded: Called before reset or after every agent has left.
+        """
+        if not self.agents:
+            if not self._process.started:
+                raise ResetNeeded("last() called before reset(); call reset() first")
+            raise ResetNeeded("last() called after the episode ended; call reset() first")
+        return super().last(observe)
 
     def step(self, action: Any) -> None:
         """Take the selected agent's turn."""
@@ -179,17 +216,19 @@ class NSGame(AECEnv):
         # game as it was (rewards included).
         if agent == NATURE:
             scripted = self._scripted
-            if scripted is not None and action is scripted[0] and action.tolist() == scripted[1]:
+            if (
+                scripted is not None
+                and action is scripted[0]
+                and action.tolist() == scripted[1]
+                and process.t == scripted[3]
+            ):
                 proposal = scripted[2]  # the policy's own values, exact
             else:
-                proposal = self._proposal(action)
+                proposal = self._nature.proposal(action, process.theta)
             process.nature_turn(proposal)
             self._scripted = None
-            following = MONITOR
         elif agent == MONITOR:
-            flags, sizes = _notification_of(action)
-            self._notification = mask_notification(process.level, flags, sizes, process.no_change)
-            following = DECISION
+            process.monitor_turn(*self._notification_of(action))
         else:
             action = process.family.check_action(action)
         # Rewards arise only from the transition at the end of the decision turn; the other
@@ -199,7 +238,7 @@ class NSGame(AECEnv):
             self._decision_turn(action)
         else:
             self._zero_rewards()
-            self.agent_selection = following
+            self.agent_selection = process.turn
 
     def _zero_rewards(self) -> None:
         if self._rewarded:
@@ -210,7 +249,9 @@ class NSGame(AECEnv):
         process = self._process
         reward, terminated, truncated = process.transition(action)
         reward = float(reward)
-        nature_reward = self._nature_sign * reward
+        nature_reward = self._nature_reward.per_step(reward)
+        if process.done:
+            nature_reward += self._nature_reward.at_end(process)
         self.rewards = {NATURE: nature_reward, MONITOR: 0.0, DECISION: reward}
         self._rewarded = True
         totals = self._cumulative_rewards
@@ -219,72 +260,57 @@ class NSGame(AECEnv):
         if terminated or truncated:
             self.terminations = dict.fromkeys(AGENTS, bool(terminated))
             self.truncations = dict.fromkeys(AGENTS, bool(truncated))
-            self._notification = (process.no_change, process.no_change)
         self.agent_selection = NATURE
 
-    def _proposal(self, action: Any) -> dict[str, Any] | None:
-        """Turn nature's Δθ into a proposal of new values.
-
-        Raises:
-            ValueError: The action is not a finite vector inside nature's action space.
-        """
-        if type(action) is np.ndarray and action.ndim == 1 and action.dtype.kind in "fiu":
-            delta = action.tolist()
-        else:
-            delta = _number_list(action, "nature action")
-            if np.ndim(action) != 1:
-                delta = []  # reported as outside the space below
-        if len(delta) != len(self._delta_bounds):
+    def _notification_of(self, action: Any) -> tuple[list, list]:
+        """Flags and sizes of a monitor action (lengths and sizes are checked by the process)."""
+        if self._monitor_flags_only:
+            flags = _number_list(action, "monitor action", flags=True)
+            if not set(flags) <= {0, 1}:
+                raise ValueError(f"monitor action={action!r} must hold only 0 and 1")
+            return flags, list(self._process.no_change)
+        try:
+            flags, sizes = action["env_change"], action["delta_change"]
+        except (TypeError, KeyError, IndexError):
             raise ValueError(
-                f"nature action={action!r} is outside the action space {self.action_spaces[NATURE]}"
-            )
-        if not any(delta):
-            return None
-        total = sum(delta)
-        if self._uniform_bounds is not None:  # one min/max test; NaN makes the sum fail
-            low, high = self._uniform_bounds
-            inside = total == total and low <= min(delta) and max(delta) <= high
-        else:
-            inside = all(
-                lo <= v <= hi for v, (lo, hi) in zip(delta, self._delta_bounds, strict=True)
-            )
-        if not inside:
-            raise ValueError(
-                f"nature action={action!r} is outside the action space {self.action_spaces[NATURE]}"
-            )
-        theta = self._process.theta
-        proposal: dict[str, Any] = {}
-        for name, is_vector, start, stop in self._flat_layout:
-            if is_vector:
-                chunk = delta[start:stop]
-                if any(chunk):
-                    value = getattr(theta, name)
-                    proposal[name] = tuple([p + d for p, d in zip(value, chunk, strict=True)])
-            elif delta[start]:
-                proposal[name] = getattr(theta, name) + delta[start]
-        return proposal
+                f"monitor action={action!r} must be a dict with keys 'env_change' and "
+                "'delta_change'"
+            ) from None
+        flag_list = _number_list(flags, "monitor action env_change", flags=True)
+        size_list = _number_list(sizes, "monitor action delta_change")
+        if not set(flag_list) <= {0, 1}:
+            raise ValueError(f"monitor action env_change={flags!r} must hold only 0 and 1")
+        return flag_list, size_list
 
     # -- scripted agents, ground truth ------------------------------------------------------
     def policy_action(self, agent: str) -> Any:
         """The action the configured policy of ``agent`` takes now (nature or monitor).
 
-        For nature this advances the scripted policy's episode memory, so call it once per
-        nature turn. It returns Δθ; θ + Δθ may miss a scripted value by a rounding error (no
-        float Δ turns 1.0 into 0.3 exactly), so the game remembers the exact values behind the
-        array it hands out and grants those when that same, unmodified array is stepped.
+        The policy is asked once per turn: calling this again in the same turn returns the same
+        action, and the schedule advances once per step. For nature it returns the action in the
+        game's convention; a scripted value may lie beyond it (a jump larger than the
+        allowance) or miss by a rounding error (no float Δ turns 1.0 into 0.3 exactly), so the
+        game remembers the exact values behind the array it hands out and grants those when
+        that same, unmodified array is stepped in this turn.
 
         Raises:
-            ValueError: ``agent`` is the decision agent, which has no configured policy.
+            ValueError: ``agent`` is not ``"nature"`` or ``"monitor"``, or it is not its turn.
+            ResetNeeded: No episode is running.
         """
         process = self._process
-        process.check_running("policy_action()")
+        _check_agent(agent)
         if agent == NATURE:
             proposal = process.scripted_proposal()
-            delta = delta_of(process.theta, proposal or {}, self._nature_space)
-            self._scripted = (delta, delta.tolist(), proposal)
+            scripted = self._scripted
+            if scripted is not None and scripted[3] == process.t:
+                return scripted[0]
+            delta = self._nature.action_of(process.theta, proposal)
+            self._scripted = (delta, delta.tolist(), proposal, process.t)
             return delta
         if agent == MONITOR:
-            flags, sizes = process.notification(self.observe(MONITOR))
+            flags, sizes = process.scripted_notification()
+            if self._monitor_flags_only:
+                return np.array(flags, np.int64)
             return {
                 "env_change": np.array(flags, np.int8),
                 "delta_change": np.array(sizes, np.float32),
@@ -298,18 +324,23 @@ class NSGame(AECEnv):
         return self._process.ground_truth()
 
     def planning_model(self) -> Any:
-        """A stationary planning model for the decision agent (θ_0, or θ_t at ``detailed``)."""
+        """A stationary planning model for the decision agent (θ_0, or θ_{t-1} at ``detailed``)."""
         return self._process.planning_model()
 
     @property
     def nature_action_space(self) -> spaces.Box:
-        """Nature's action space, typed as the ``Box`` of Δθ it is."""
-        return self._nature_space
+        """Nature's action space, typed as the ``Box`` it is."""
+        return self._nature.action_space
 
     @property
     def family(self) -> EnvFamily:
         """The environment family."""
         return self._process.family
+
+    @property
+    def process(self) -> NSProcess:
+        """The process this game drives (for adapters and exact tools)."""
+        return self._process
 
     def render(self) -> None:
         """No rendering yet: the game has no visual state of its own."""
@@ -320,36 +351,20 @@ class NSGame(AECEnv):
         return None
 
 
-def delta_of(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -> np.ndarray:
-    """Δθ (flat, clipped to nature's action space) that moves ``theta`` to the proposed values."""
-    current = theta.flat()
-    target = current.copy()
-    for spec, start, stop in theta.flat_layout():
-        if spec.name in proposal:
-            target[start:stop] = proposal[spec.name]
-    return np.clip(target - current, space.low, space.high)
+def _check_agent(agent: str) -> str:
+    if agent not in AGENTS:
+        raise ValueError(f"agent={agent!r} is not one of {AGENTS}")
+    return agent
 
 
-def _notification_of(action: Any) -> tuple[list, list]:
-    """Flags and sizes of a monitor action; lengths and sizes are checked by the masking."""
-    try:
-        flags, sizes = action["env_change"], action["delta_change"]
-    except (TypeError, KeyError, IndexError):
-        raise ValueError(
-            f"monitor action={action!r} must be a dict with keys 'env_change' and 'delta_change'"
-        ) from None
-    flag_list = _number_list(flags, "monitor action env_change")
-    size_list = _number_list(sizes, "monitor action delta_change")
-    if not set(flag_list) <= {0, 1}:
-        raise ValueError(f"monitor action env_change={flags!r} must hold only 0 and 1")
-    return flag_list, size_list
-
-
-def _number_list(value: Any, what: str) -> list:
-    """A 1-D numeric array or sequence as a list of Python numbers."""
-    if type(value) is np.ndarray and value.ndim == 1 and value.dtype.kind in "fiub":
+def _number_list(value: Any, what: str, *, flags: bool = False) -> list:
+    """A 1-D real array or sequence as a list of Python numbers (bools only for ``flags``)."""
+    kinds = "fiub" if flags else "fiu"
+    if type(value) is np.ndarray and value.ndim == 1 and value.dtype.kind in kinds:
         return value.tolist()
-    try:
-        return [float(x) for x in np.ravel(value)]
-    except (TypeError, ValueError):
-        raise ValueError(f"{what}={value!r} is not a numeric vector") from None
+    scalars: tuple[type, ...] = (int, float, bool) if flags else (int, float)
+    if isinstance(value, (list, tuple)) and all(
+        type(x) in scalars or isinstance(x, (np.floating, np.integer)) for x in value
+    ):
+        return [float(x) for x in value]
+    raise ValueError(f"{what}={value!r} is not a real numeric vector")

@@ -7,12 +7,12 @@ Decision agent (and the Gymnasium view), a flat ``Dict``:
 * ``delta_change``: ``Box(0, inf, (n,), float32)``, the size of each parameter's change;
 * ``relative_time``: ``Box(0, inf, (1,), float32)``, transitions since reset.
 
-Nature: a ``Box`` float32 vector ``[t, θ (flat, field order), budget_left]``; it acts with a
-``Box`` float64 vector Δθ in the same flat layout, so the all-zero action means "no change".
+Nature: see :mod:`ns_pz.nature.interface` (one encoding for the game and every learner).
 
 Monitor: a ``Dict`` of the last transition (``last_state``, ``last_action``, ``last_reward``,
 ``state``) and ``relative_time``; it acts with a ``Dict`` of ``env_change`` and
-``delta_change``, the notification it wants the agent to get.
+``delta_change``, the notification it wants the agent to get, or (for learners and libraries
+that refuse ``Dict`` actions) with the flags alone, ``MultiDiscrete([2] * n)``.
 
 Every call returns fresh arrays: users may keep or modify what they are given.
 """
@@ -44,23 +44,6 @@ def agent_observation_space(family: EnvFamily) -> spaces.Dict:
     )
 
 
-def nature_observation_space(params_cls: type[Params]) -> spaces.Box:
-    """``[t, θ flat..., budget_left]`` with θ's bounds, float32."""
-    low, high = params_cls.flat_bounds()
-    return spaces.Box(
-        np.concatenate(([0.0], low, [0.0])).astype(np.float32),
-        np.concatenate(([np.inf], high, [np.inf])).astype(np.float32),
-        dtype=np.float32,
-    )
-
-
-def nature_action_space(params_cls: type[Params]) -> spaces.Box:
-    """Δθ in flat layout, float64, bounded by the width of each parameter's range."""
-    low, high = params_cls.flat_bounds()
-    width = high - low
-    return spaces.Box(-width, width, dtype=np.float64)
-
-
 def monitor_observation_space(family: EnvFamily) -> spaces.Dict:
     """The last transition and the clock."""
     return spaces.Dict(
@@ -83,6 +66,11 @@ def monitor_action_space(params_cls: type[Params]) -> spaces.Dict:
             "delta_change": spaces.Box(0.0, np.inf, (count,), np.float32),
         }
     )
+
+
+def monitor_flags_space(params_cls: type[Params]) -> spaces.MultiDiscrete:
+    """The notification as flags alone, one 0/1 per parameter (no sizes), for learners."""
+    return spaces.MultiDiscrete(np.full(len(params_cls.names()), 2, np.int64))
 
 
 class ObservationBuilder:
@@ -117,10 +105,6 @@ class ObservationBuilder:
             "delta_change": np.array(sizes, np.float32),
             "relative_time": clock,
         }
-
-    def nature(self, t: int, theta: Params, budget_left: float) -> np.ndarray:
-        """Nature's observation ``[t, θ flat..., budget_left]``."""
-        return np.array([t, *theta.flat_values(), budget_left], np.float32)
 
     def monitor(self, process: NSProcess) -> dict:
         """The monitor's observation of the process's last transition (a null action before it)."""

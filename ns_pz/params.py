@@ -79,6 +79,11 @@ class ParamSpec:
     def __post_init__(self) -> None:
         object.__setattr__(self, "size", len(self.outcomes) if self.kind == SIMPLEX else 1)
 
+    @property
+    def width(self) -> float:
+        """Widest possible change: ``high - low`` (``inf`` if unbounded); 1 for a vector (TV)."""
+        return 1.0 if self.kind == SIMPLEX else self.high - self.low
+
     def allowed(self) -> str:
         """The allowed set, as an error message shows it."""
         if self.kind == SIMPLEX:

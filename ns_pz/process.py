@@ -1,26 +1,36 @@
-"""The transition core shared by the AEC game and the Gymnasium view.
+"""The transition core shared by the AEC game, the Gymnasium view and the learner seats.
 
-One :class:`NSProcess` runs one NS-MDP episode at a time. A time step ``t`` has three turns:
+One :class:`NSProcess` runs one NS-MDP episode at a time, and is the one place where the order
+of a time step lives. A time step ``t`` has three turns, which the process enforces:
 
-1. :meth:`NSProcess.nature_turn` grants nature's proposal (projected onto the allowed set): θ_t;
-2. :meth:`NSProcess.notification` is what the monitor tells the agent, about the change behind
-   the last transition (θ_{t-1} against θ_{t-2}): never about θ_t, which no one has seen act yet;
-3. :meth:`NSProcess.transition` draws ``s_{t+1}`` under θ_t and advances ``t``.
+1. ``nature`` (:meth:`NSProcess.nature_turn`): nature's proposal, projected onto the allowed
+   set, becomes θ_t;
+2. ``monitor`` (:meth:`NSProcess.monitor_turn`): the notification the agent gets, about the
+   change behind the last transition (θ_{t-1} against θ_{t-2}): never about θ_t, which no one
+   has seen act yet;
+3. ``agent`` (:meth:`NSProcess.transition`): ``s_{t+1}`` is drawn under θ_t, ``t`` advances, and
+   the turn is nature's again (unless the episode ended).
 
-The game calls these from its three agents' turns; the view calls them in a row inside one
-``step``. Both therefore produce identical trajectories for the same seed and actions.
+A turn taken out of order raises ``ValueError``. :meth:`NSProcess.play_until` plays the
+configured nature and monitor (and, if given, a decision policy) until a chosen seat is to move:
+the Gymnasium view calls it after every transition and at reset, the game when asked for a
+policy's action, the learner environments of :mod:`ns_pz.seats` to skip to their learner's turn.
+They therefore produce identical trajectories for the same seed and actions, for any nature and
+any monitor, stateful or random.
 
 Randomness: :meth:`NSProcess.seed` turns one seed into independent generators through
 ``numpy.random.SeedSequence``: the environment's (``Generator(PCG64(SeedSequence(seed)))``, which
-is what Gymnasium's ``np_random`` would be), nature's, the monitor's, and a seed sequence from
-which each planning model gets a fresh child. No global generator is used anywhere.
+is what Gymnasium's ``np_random`` would be), nature's, the monitor's, a seed sequence from which
+each planning model gets a fresh child, and one for the policies driving seats (:meth:`seat_rng`).
+No global generator is used anywhere.
 """
 
 from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, cast
 
@@ -31,7 +41,9 @@ from ns_pz.family import EnvFamily, State
 from ns_pz.monitor.monitors import Monitor, OracleMonitor
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.nature.constraints import NatureConstraints, admit
-from ns_pz.nature.policies import Nature, StaticNature
+from ns_pz.nature.interface import DEFAULT_STEP, NatureInterface
+from ns_pz.nature.policies import Nature, Proposal, StaticNature
+from ns_pz.observations import ObservationBuilder
 from ns_pz.params import Params
 
 
@@ -56,6 +68,14 @@ class GroundTruth:
     total_change: float
 
 
+NATURE = "nature"
+MONITOR = "monitor"
+DECISION = "agent"
+AGENTS = (NATURE, MONITOR, DECISION)
+"""The three seats, in turn order."""
+RESET_OPTIONS = ("params",)
+
+
 class NSProcess:
     """One NS-MDP: a family, θ_0, nature, monitor, notification level, constraints, time limit.
 
@@ -65,9 +85,8 @@ class NSProcess:
         nature: Who changes θ (default: nobody, a stationary env).
         monitor: Who decides the notification (default: the oracle).
         notification: ``"none"``, ``"basic"`` or ``"detailed"``.
-        constraints: Lipschitz bound and budget on nature.
-        max_episode_steps: Transitions after which the episode is truncated; ``None``: never
-            (the Gymnasium registration leaves truncation to Gymnasium's ``TimeLimit``).
+        constraints: Lipschitz bounds and budgets on nature.
+        max_episode_steps: Transitions after which the episode is truncated; ``None``: never.
 
     Raises:
         TypeError / ValueError: Any argument of the wrong type or value, before anything runs.
@@ -87,16 +106,20 @@ class NSProcess:
         if not isinstance(family, EnvFamily):
             raise TypeError(f"family={family!r} must be an ns_pz EnvFamily")
         self.family = family
-        self.theta0 = _check_params(family, params)
+        self.base_theta0 = _check_params(family, params)
+        """θ_0 of every episode that does not set its own (``reset(options={"params": ...})``)."""
+        self.theta0 = self.base_theta0
         self.nature = StaticNature() if nature is None else nature
         if not isinstance(self.nature, Nature):
             raise TypeError(
-                f"nature={nature!r} must be an ns_pz Nature (ScriptedNature, RandomNature, ...)"
+                f"nature={nature!r} must be an ns_pz Nature (ScriptedNature, RandomNature, "
+                "PolicyNature, ...)"
             )
         self.nature.bind(family.params_cls)
         self.monitor = OracleMonitor() if monitor is None else monitor
         if not isinstance(self.monitor, Monitor):
             raise TypeError(f"monitor={monitor!r} must be an ns_pz Monitor (e.g. OracleMonitor())")
+        self.monitor.bind(family, self.base_theta0)
         self.level = NotificationLevel.parse(notification)
         self.constraints = NatureConstraints() if constraints is None else constraints
         if not isinstance(self.constraints, NatureConstraints):
@@ -111,13 +134,20 @@ class NSProcess:
 
         self.param_names = family.params_cls.names()
         self.no_change: tuple[float, ...] = (0.0,) * len(self.param_names)
+        self.build = ObservationBuilder(family)
         self.env_rng: np.random.Generator | None = None
         self.nature_rng: np.random.Generator | None = None
         self.monitor_rng: np.random.Generator | None = None
         self._planning_seeds: np.random.SeedSequence | None = None
+        self._seat_seeds: np.random.SeedSequence | None = None
+        self._interfaces: dict[tuple, NatureInterface] = {}
         self.started = False
         self.done = True
+        self.turn = NATURE
+        """Whose turn it is: ``"nature"``, ``"monitor"`` or ``"agent"``."""
         self.state: State = None
+        self.initial_state: State = None
+        """The start state of this episode."""
         self.theta = self.theta0
         self.last_theta = self.theta0
         """θ that drove the last transition (θ_0 before the first)."""
@@ -127,41 +157,84 @@ class NSProcess:
         self.last_state: State = None
         self.last_change: tuple[Params, Params] | None = None
         """(θ before, θ after) of the change behind the last transition, if there was one."""
-        self.budget_used = 0.0
+        self.notice: tuple[tuple, tuple] = (self.no_change, self.no_change)
+        """The notification of this step (flags, sizes), masked to the level; zeros until the
+        monitor's turn and after the episode ends."""
+        self.spent: dict[str, float] = {}
+        """Change size charged to nature's budget per parameter this episode."""
         self.change_times: list[int] = []
         self.change_values: list[Params] = []
         self.nature_memory: Any = None
         self.monitor_memory: Any = None
+        self.carried_nature_memory: Any = None
+        """Set before a reset to continue nature's memory in the next episode instead of starting
+        afresh (NS-Gym's persistent parameters); consumed by that reset."""
+        self._pending: tuple[int, Any] | None = None
 
     # -- seeding and reset ------------------------------------------------------------------
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
-        """Derive every generator from one seed (``None``: fresh OS entropy)."""
-        root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-        self.env_rng = np.random.Generator(np.random.PCG64(root))
-        nature_seq, monitor_seq, planning_seq = root.spawn(3)
+        """Derive every generator from one seed (``None``: fresh OS entropy).
+
+        Raises:
+            TypeError / ValueError: ``seed`` is not ``None``, a non-negative int or a
+                ``SeedSequence``.
+        """
+        if not isinstance(seed, np.random.SeedSequence):
+            seed = np.random.SeedSequence(check_seed(seed))
+        self.env_rng = np.random.Generator(np.random.PCG64(seed))
+        nature_seq, monitor_seq, planning_seq, seat_seq = seed.spawn(4)
         self.nature_rng = np.random.Generator(np.random.PCG64(nature_seq))
         self.monitor_rng = np.random.Generator(np.random.PCG64(monitor_seq))
         self._planning_seeds = planning_seq
+        self._seat_seeds = seat_seq
 
-    def reset(self) -> None:
-        """Start an episode: θ back to θ_0, a start state drawn, the clock at 0."""
+    def reset(self, options: Mapping[str, Any] | None = None) -> None:
+        """Start an episode: θ back to θ_0, a start state drawn, the clock at 0, nature to move.
+
+        Args:
+            options: ``{"params": θ_0}`` starts this episode (only) from another θ_0, a
+                parameter set or a mapping of names to values (others default). Other keys are
+                ignored with a warning that names them (PettingZoo's ``api_test`` passes one).
+
+        Raises:
+            TypeError: ``options`` is not a mapping.
+            ParamOutOfRange / UnknownParam: An invalid θ_0.
+        """
+        theta0 = self.base_theta0
+        if options is not None:
+            if not isinstance(options, Mapping):
+                raise TypeError(f"options={options!r} must be a dict or None")
+            unknown = sorted(map(str, set(options) - set(RESET_OPTIONS)))
+            if unknown:
+                warnings.warn(
+                    f"reset options {unknown} are not understood and were ignored; "
+                    f"understood: {list(RESET_OPTIONS)}",
+                    UserWarning,
+                    stacklevel=3,
+                )
+            if options.get("params") is not None:
+                theta0 = _check_params(self.family, options["params"])
         if self.env_rng is None:
             self.seed(None)
         self.state = self.family.initial_state(cast(np.random.Generator, self.env_rng))
-        self.theta = self.theta0
-        self.last_theta = self.theta0
+        self.initial_state = self.state
+        self.theta0 = self.theta = self.last_theta = theta0
         self.t = 0
         self.last_action = None
         self.last_reward = 0.0
         self.last_state = self.state
         self.last_change = None
-        self.budget_used = 0.0
+        self.notice = (self.no_change, self.no_change)
+        self.spent = {}
         self.change_times = []
         self.change_values = []
-        self.nature_memory = self.nature.initial_memory()
+        carried, self.carried_nature_memory = self.carried_nature_memory, None
+        self.nature_memory = self.nature.initial_memory() if carried is None else carried
         self.monitor_memory = self.monitor.initial_memory()
+        self._pending = None
         self.started = True
         self.done = False
+        self.turn = NATURE
 
     def check_running(self, what: str) -> None:
         """Raise :class:`ResetNeeded` unless an episode is running."""
@@ -170,33 +243,113 @@ class NSProcess:
         if self.done:
             raise ResetNeeded(f"{what} called after the episode ended; call reset() first")
 
+    def check_turn(self, seat: str, what: str) -> None:
+        """Raise unless an episode is running and it is ``seat``'s turn.
+
+        Raises:
+            ResetNeeded: No episode is running.
+            ValueError: It is another seat's turn.
+        """
+        if self.done or self.turn != seat:
+            self.check_running(what)
+            raise ValueError(f"{what}: it is {self.turn!r}'s turn, not {seat!r}'s")
+
     # -- the three turns --------------------------------------------------------------------
     @property
     def budget_left(self) -> float:
-        """What remains of nature's budget this episode (``inf`` when unlimited)."""
-        budget = self.constraints.budget
-        return math.inf if budget is None else max(budget - self.budget_used, 0.0)
+        """What remains of the shared total budget this episode (``inf`` when there is none).
 
-    def scripted_proposal(self) -> Mapping[str, Any] | None:
-        """What the configured nature policy proposes at this step (advances its memory)."""
-        return self.nature.propose(
-            self.t,
-            self.theta,
-            self.budget_left,
-            self.nature_memory,
-            self.nature_rng,  # type: ignore[arg-type]
-        )
+        Per-parameter and normalised budgets are in :attr:`spent` and the constraints.
+        """
+        budget = self.constraints.total_budget
+        if budget is None:
+            return math.inf
+        return max(budget - math.fsum(self.spent.values()), 0.0)
+
+    def scripted_proposal(self) -> Proposal:
+        """What the configured nature proposes this turn.
+
+        Asked once per turn: a second call in the same turn returns the first answer, so the
+        schedule and nature's generator advance once per step however often it is asked.
+
+        Raises:
+            ResetNeeded / ValueError: No episode is running, or it is not nature's turn.
+        """
+        self.check_turn(NATURE, "the nature policy's action")
+        pending = self._pending
+        if pending is not None and pending[0] == self.t:
+            return cast(Proposal, pending[1])
+        proposal = self.nature.act(self)
+        self._pending = (self.t, proposal)
+        return proposal
 
     def nature_turn(self, proposal: Mapping[str, Any] | None) -> None:
-        """Grant nature's proposal for step ``t``, projected onto the allowed set."""
+        """Grant nature's proposal for step ``t``, projected onto the allowed set.
+
+        Raises:
+            ResetNeeded / ValueError: No episode is running, or it is not nature's turn.
+        """
+        self.check_turn(NATURE, "nature's turn")
+        self._pending = None
+        self.turn = MONITOR
         if not proposal:
             return
-        theta, sizes = admit(self.theta, proposal, self.constraints, self.budget_left)
+        theta, sizes = admit(self.theta, proposal, self.constraints, self.spent)
         if theta is self.theta:
             return
         if sizes is not None:
-            self.budget_used += math.fsum(sizes.values())
+            spent = self.spent
+            for name, size in sizes.items():
+                spent[name] = spent.get(name, 0.0) + size
         self._record_change(theta)
+
+    def scripted_notification(self) -> tuple[tuple, tuple]:
+        """What the configured monitor says this turn, masked to the level.
+
+        Asked once per turn: a second call in the same turn returns the first answer.
+
+        Raises:
+            ResetNeeded / ValueError: No episode is running, or it is not the monitor's turn.
+        """
+        self.check_turn(MONITOR, "the monitor policy's action")
+        pending = self._pending
+        if pending is not None and pending[0] == self.t:
+            return cast(tuple, pending[1])
+        notice = self._monitor_says()
+        self._pending = (self.t, notice)
+        return notice
+
+    def _monitor_says(self) -> tuple[tuple, tuple]:
+        level = self.level
+        if level is NotificationLevel.NONE:
+            return self.no_change, self.no_change
+        monitor = self.monitor
+        truth = None
+        if monitor.reads_ground_truth:
+            if self.last_change is None:
+                return self.no_change, self.no_change
+            truth = self.last_sizes()
+        observation = self.build.monitor(self) if monitor.needs_observation else None
+        flags, sizes = monitor.notify(
+            observation,
+            truth,
+            self.monitor_memory,
+            self.monitor_rng,  # type: ignore[arg-type]
+        )
+        return mask_notification(level, flags, sizes, self.no_change)
+
+    def monitor_turn(self, flags: Sequence[Any], sizes: Sequence[Any]) -> None:
+        """Send the notification of this step (masked to the level) and give the agent the turn.
+
+        Raises:
+            ResetNeeded / ValueError: No episode is running, or it is not the monitor's turn.
+            ValueError: ``flags``/``sizes`` do not have one entry per parameter, or a size is
+                negative or not finite.
+        """
+        self.check_turn(MONITOR, "the monitor's turn")
+        self.notice = mask_notification(self.level, flags, sizes, self.no_change)
+        self._pending = None
+        self.turn = DECISION
 
     def set_params(self, changes: Mapping[str, Any]) -> None:
         """Change θ now, by hand: validated strictly (no projection), applies to transition ``t``.
@@ -221,29 +374,6 @@ class NSProcess:
             self.change_times.append(self.t)
             self.change_values.append(theta)
 
-    def notification(self, observation: dict[str, Any] | None = None) -> tuple[tuple, tuple]:
-        """The monitor's message about the last transition, masked to the level.
-
-        Returns:
-            ``(flags, sizes)``, one entry per parameter in field order; zeros where the level
-            hides them.
-        """
-        level = self.level
-        if level is NotificationLevel.NONE:
-            return self.no_change, self.no_change
-        truth = None
-        if self.monitor.reads_ground_truth:
-            if self.last_change is None:
-                return self.no_change, self.no_change
-            truth = self.last_sizes()
-        flags, sizes = self.monitor.notify(
-            observation,
-            truth,
-            self.monitor_memory,
-            self.monitor_rng,  # type: ignore[arg-type]
-        )
-        return mask_notification(level, flags, sizes, self.no_change)
-
     def last_sizes(self) -> tuple[float, ...]:
         """True size of each parameter's change behind the last transition (zeros if none)."""
         if self.last_change is None:
@@ -252,11 +382,18 @@ class NSProcess:
         return after.change_sizes(before)
 
     def transition(self, action: Any) -> tuple[float, bool, bool]:
-        """Draw the next state under the current θ and advance the clock.
+        """The agent's turn: draw the next state under the current θ and advance the clock.
+
+        ``action`` must already be checked (``family.check_action``).
 
         Returns:
             ``(reward, terminated, truncated)``.
+
+        Raises:
+            ResetNeeded / ValueError: No episode is running, or it is not the agent's turn.
         """
+        if self.turn != DECISION or self.done:
+            self.check_turn(DECISION, "the agent's turn")
         self.last_state = self.state
         self.state, reward, terminated = self.family.step(
             self.state,
@@ -276,7 +413,75 @@ class NSProcess:
         limit = self.max_episode_steps
         truncated = limit is not None and self.t >= limit
         self.done = terminated or truncated
+        self.turn = NATURE
+        if self.done:
+            self.notice = (self.no_change, self.no_change)
         return reward, terminated, truncated
+
+    def play_until(
+        self, seat: str | None, decide: Callable[[NSProcess], Any] | None = None
+    ) -> tuple[float, int]:
+        """Play the configured policies until it is ``seat``'s turn or the episode ends.
+
+        Nature plays the configured nature, the monitor the configured monitor; the agent's turn
+        is played by ``decide(process)`` (an action, checked here), and is where play stops if
+        ``decide`` is ``None``. ``seat=None`` plays to the end of the episode. This is the one
+        loop every driver of the process uses.
+
+        Returns:
+            The sum of the agent's rewards over the transitions played, and their number.
+        """
+        total, count = 0.0, 0
+        while not self.done and self.turn != seat:
+            turn = self.turn
+            if turn == NATURE:
+                self.nature_turn(self.scripted_proposal())
+            elif turn == MONITOR:
+                self.monitor_turn(*self.scripted_notification())
+            elif decide is None:
+                return total, count
+            else:
+                reward, _, _ = self.transition(self.family.check_action(decide(self)))
+                total += float(reward)
+                count += 1
+        return total, count
+
+    def agent_observation(self) -> dict[str, Any]:
+        """The decision agent's observation now: state, the notification of this step, clock."""
+        flags, sizes = self.notice
+        quiet = flags is self.no_change and sizes is self.no_change
+        return self.build.agent(self.state, self.t, flags, sizes, quiet)
+
+    def nature_interface(
+        self,
+        action: str = "delta",
+        observes_state: bool = False,
+        default_step: float = DEFAULT_STEP,
+    ) -> NatureInterface:
+        """Nature's observation and action conventions for this process (one per option set)."""
+        key = (action, observes_state, default_step)
+        interface = self._interfaces.get(key)
+        if interface is None:
+            interface = NatureInterface(
+                self.family,
+                self.constraints,
+                self.max_episode_steps,
+                action=action,
+                observes_state=observes_state,
+                default_step=default_step,
+            )
+            self._interfaces[key] = interface
+        return interface
+
+    def seat_rng(self) -> np.random.Generator:
+        """A fresh generator for a policy driving a seat, from the seed (deterministic sequence).
+
+        Raises:
+            ResetNeeded: Called before the process was seeded.
+        """
+        if self._seat_seeds is None:
+            raise ResetNeeded("seat policies need a seeded episode; call reset() first")
+        return np.random.Generator(np.random.PCG64(self._seat_seeds.spawn(1)[0]))
 
     # -- what agents may be handed ----------------------------------------------------------
     def planning_theta(self) -> Params:
@@ -315,30 +520,38 @@ class NSProcess:
             raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
         twin = copy.copy(self)
         theta = self.planning_theta() if theta is None else theta
-        twin.theta0 = twin.theta = twin.last_theta = theta
+        twin.base_theta0 = twin.theta0 = twin.theta = twin.last_theta = theta
         twin.nature = _STATIC
         twin.nature_memory = None
         twin.constraints = _UNCONSTRAINED
         # Own streams, so using the twin never touches ours; its static nature draws nothing.
         root = self._spawn_planning_seed()
-        monitor_seq, planning_seq = root.spawn(2)
+        monitor_seq, planning_seq, seat_seq = root.spawn(3)
         twin.env_rng = np.random.Generator(np.random.PCG64(root))
         twin.monitor_rng = np.random.Generator(np.random.PCG64(monitor_seq))
         twin.nature_rng = twin.env_rng
         twin._planning_seeds = planning_seq
+        twin._seat_seeds = seat_seq
         twin.monitor_memory = self.monitor.initial_memory()
         twin.last_change = None
         twin.change_times = []
         twin.change_values = []
-        twin.budget_used = 0.0
-        return twin
+        twin.spent = {}
+        twin._interfaces = {}
+        return twin._joined()
 
-    def continuing_copy(self, theta: Params | None = None) -> NSProcess:
+    def continuing_copy(
+        self, theta: Params | None = None, *, retake_turn: bool = False
+    ) -> NSProcess:
         """A process at the current state and time in which nature keeps acting.
 
         Args:
             theta: The θ the copy continues from (and starts its own episodes with); default
                 :meth:`planning_theta`.
+            retake_turn: If nature has already moved in this step, let it move again in the copy
+                from ``theta`` (with its memory as it is now, so a rule that counts its firings
+                counts this step twice); by default the copy's coming transition runs under
+                ``theta`` and nature acts again from the next step.
 
         Nature's episode memory and the budget used are copied, so the schedule carries on
         where it is; the copy draws from fresh generators derived from the planning seed, so
@@ -348,19 +561,31 @@ class NSProcess:
             raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
         twin = copy.copy(self)
         theta = self.planning_theta() if theta is None else theta
-        twin.theta0 = twin.theta = twin.last_theta = theta
+        twin.base_theta0 = twin.theta0 = twin.theta = twin.last_theta = theta
         twin.nature_memory = copy.deepcopy(self.nature_memory)
         root = self._spawn_planning_seed()
-        nature_seq, monitor_seq, planning_seq = root.spawn(3)
+        nature_seq, monitor_seq, planning_seq, seat_seq = root.spawn(4)
         twin.env_rng = np.random.Generator(np.random.PCG64(root))
         twin.nature_rng = np.random.Generator(np.random.PCG64(nature_seq))
         twin.monitor_rng = np.random.Generator(np.random.PCG64(monitor_seq))
         twin._planning_seeds = planning_seq
+        twin._seat_seeds = seat_seq
         twin.monitor_memory = self.monitor.initial_memory()
         twin.last_change = None
         twin.change_times = []
         twin.change_values = []
-        return twin
+        twin.spent = dict(self.spent)
+        if retake_turn and not self.done:
+            twin.turn = NATURE
+        return twin._joined()
+
+    def _joined(self) -> NSProcess:
+        """This copy, brought to the agent's turn (where a planner or a view takes over)."""
+        self._pending = None
+        self.notice = (self.no_change, self.no_change)
+        if not self.done:
+            self.play_until(DECISION)
+        return self
 
     def ground_truth(self) -> GroundTruth:
         """The true θ trajectory of this episode so far."""
@@ -421,3 +646,19 @@ def _check_params(family: EnvFamily, params: Params | Mapping[str, Any] | None) 
     raise TypeError(
         f"params={params!r} must be a {cls.__name__} or a mapping of its parameter names to values"
     )
+
+
+def check_seed(seed: Any) -> int | None:
+    """Return ``seed`` if it is ``None`` or a non-negative int, else raise.
+
+    Raises:
+        TypeError: ``seed`` is not an int (a bool or a float is refused too).
+        ValueError: ``seed`` is negative.
+    """
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(f"seed={seed!r} must be a non-negative int or None")
+    if seed < 0:
+        raise ValueError(f"seed={seed!r} must be a non-negative int or None")
+    return int(seed)

@@ -28,9 +28,10 @@ from pettingzoo.test import api_test, seed_test
 
 from ns_pz.envs.registry import make, make_gym
 from ns_pz.game import AGENTS, DECISION, MONITOR, NATURE, NSGame
+from ns_pz.monitor.monitors import Monitor, OracleMonitor
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.nature.constraints import NatureConstraints
-from ns_pz.nature.policies import RandomNature
+from ns_pz.nature.policies import Nature, RandomNature
 from ns_pz.params import Params
 
 STRESS_SCALE = 0.2
@@ -176,36 +177,127 @@ def check_turn_order(env_id: str, **kwargs: Any) -> None:
     assert not game.agents
 
 
-def check_game_matches_view(env_id: str, num_cycles: int = 60, **kwargs: Any) -> None:
-    """The game driven by its scripted policies and the view give the same trajectory."""
+def check_game_matches_view(
+    env_id: str,
+    num_cycles: int = 60,
+    *,
+    monitors: tuple[Monitor, ...] | None = None,
+    natures: tuple[Nature, ...] | None = None,
+    **kwargs: Any,
+) -> None:
+    """The game driven by its configured policies and the view give the same trajectory.
+
+    Checked at every level for each nature and monitor (default: a memoryless random nature
+    and a stateful one; the oracle and a stateful, randomised monitor that also speaks at
+    ``t = 0``): observations, planning θ, rewards, ends and ground truth, step by step.
+    """
+    if natures is None:
+        natures = (RandomNature(STRESS_SCALE), WanderingNature())
+    if monitors is None:
+        monitors = (OracleMonitor(), NoisyMemoryMonitor())
     for level in NotificationLevel:
-        options = dict(
-            nature=RandomNature(STRESS_SCALE),
-            notification=level.value,
-            max_episode_steps=num_cycles,
-            **kwargs,
-        )
-        game = make(env_id, **options)
-        view = make_gym(env_id, **options)
-        actions = np.random.default_rng(1)
-        game.reset(seed=11)
-        view_obs, _ = view.reset(seed=11)
-        while True:
-            game.step(game.policy_action(NATURE))
-            game.step(game.policy_action(MONITOR))
-            game_obs = game.observe(DECISION)
-            assert data_equivalence(game_obs, view_obs), f"{level}: {game_obs} != {view_obs}"
-            planned = game.planning_model().theta, view.planning_model().theta
-            assert planned[0] == planned[1], f"{level}: planning θ differs: {planned}"
-            action = _action(game, DECISION, actions)
-            game.step(action)
-            view_obs, reward, terminated, truncated, _ = view.step(action)
-            assert game.rewards[DECISION] == reward
-            assert game.terminations[DECISION] == terminated
-            assert game.truncations[DECISION] == truncated
-            assert game.ground_truth() == view.ground_truth()
-            if terminated or truncated:
-                break
+        for nature, monitor in zip(natures, monitors, strict=False):
+            _compare_game_and_view(env_id, num_cycles, level, nature, monitor, **kwargs)
+
+
+def _compare_game_and_view(
+    env_id: str,
+    num_cycles: int,
+    level: NotificationLevel,
+    nature: Nature,
+    monitor: Monitor,
+    **kwargs: Any,
+) -> None:
+    options = dict(
+        nature=nature,
+        monitor=monitor,
+        notification=level.value,
+        max_episode_steps=num_cycles,
+        **kwargs,
+    )
+    where = f"{level}, {nature!r}, {monitor!r}"
+    game = make(env_id, **options)
+    view = make_gym(env_id, **options)
+    actions = np.random.default_rng(1)
+    game.reset(seed=11)
+    view_obs, _ = view.reset(seed=11)
+    while True:
+        game.step(game.policy_action(NATURE))
+        game.step(game.policy_action(MONITOR))
+        game_obs = game.observe(DECISION)
+        assert data_equivalence(game_obs, view_obs), f"{where}: {game_obs} != {view_obs}"
+        assert game.ground_truth() == view.ground_truth(), f"{where}: ground truth differs"
+        planned = game.planning_model().theta, view.planning_model().theta
+        assert planned[0] == planned[1], f"{where}: planning θ differs: {planned}"
+        action = _action(game, DECISION, actions)
+        game.step(action)
+        view_obs, reward, terminated, truncated, _ = view.step(action)
+        assert game.rewards[DECISION] == reward, where
+        assert game.terminations[DECISION] == terminated, where
+        assert game.truncations[DECISION] == truncated, where
+        if terminated or truncated:
+            assert game.ground_truth() == view.ground_truth(), f"{where}: ground truth differs"
+            break
+
+
+class NoisyMemoryMonitor(Monitor):
+    """A test monitor with memory and randomness: what a detector looks like to the cycle.
+
+    It raises a flag on a random parameter with a probability that grows with the number of
+    calls this episode (kept in its memory), draws from its generator on every call, and
+    speaks from ``t = 0`` on, so any difference in when or how often the game and the view ask
+    it shows in the notifications.
+    """
+
+    def initial_memory(self) -> list[int]:
+        """The number of calls so far, in a one-element list."""
+        return [0]
+
+    def notify(
+        self,
+        observation: dict[str, Any] | None,
+        truth: Any,
+        memory: Any,
+        rng: np.random.Generator,
+    ) -> tuple[tuple[int, ...], tuple[float, ...]]:
+        """A random flag, likelier as the episode goes on."""
+        memory[0] += 1
+        size = self.size
+        flags = [0] * size
+        sizes = [0.0] * size
+        if rng.random() < min(0.1 * memory[0], 0.9):
+            index = int(rng.integers(size))
+            flags[index] = 1
+            sizes[index] = float(rng.random())
+        return tuple(flags), tuple(sizes)
+
+    def bind(self, family: Any, theta0: Any) -> None:
+        """Learn how many parameters there are."""
+        self.size = len(family.params_cls.names())
+
+    def __repr__(self) -> str:
+        return "NoisyMemoryMonitor()"
+
+
+class WanderingNature(Nature):
+    """A test nature with memory: random steps whose size grows with each step it takes."""
+
+    def initial_memory(self) -> list[int]:
+        """The number of moves so far, in a one-element list."""
+        return [0]
+
+    def propose(
+        self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
+    ) -> Any:
+        """Every other step, a random step of every parameter, larger as moves accumulate."""
+        if rng.random() < 0.5:
+            return None
+        memory[0] += 1
+        scale = min(0.02 * memory[0], STRESS_SCALE)
+        return RandomNature(scale).propose(t, theta, budget_left, None, rng)
+
+    def __repr__(self) -> str:
+        return "WanderingNature()"
 
 
 def _action(env: Any, agent: str, rng: np.random.Generator) -> Any:

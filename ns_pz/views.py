@@ -4,10 +4,13 @@ Nature and the monitor are fixed policies inside the environment; the decision a
 Gymnasium agent. Observations are the flat ``Dict`` described in :mod:`ns_pz.observations`; the
 reward is the base environment's, a plain float. ``info`` is ``{}``: the true θ is never given
 to an agent unless asked for, through :meth:`NSGymEnv.ground_truth` or
-``ground_truth_info=True`` (which adds ``info["theta"]``, a dict of the θ in force).
+``ground_truth_info=True`` (which adds ``info["theta"]``, a dict of the θ the transition just
+made ran under; θ_0 at reset).
 
-The view calls the same :class:`~ns_pz.process.NSProcess` turns as the AEC game, without the
-game's per-agent bookkeeping, so it yields the same trajectories at a fraction of the cost.
+The view drives the same :class:`~ns_pz.process.NSProcess` as the AEC game, through the same
+turns in the same order (:meth:`~ns_pz.process.NSProcess.play_until` plays nature and the monitor
+at reset and after every transition), without the game's per-agent bookkeeping: it yields the
+same trajectories, notifications included, for any nature and monitor, at a fraction of the cost.
 """
 
 from __future__ import annotations
@@ -23,9 +26,9 @@ from ns_pz.monitor.monitors import Monitor
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.nature.constraints import NatureConstraints
 from ns_pz.nature.policies import Nature
-from ns_pz.observations import ObservationBuilder, agent_observation_space
+from ns_pz.observations import agent_observation_space
 from ns_pz.params import Params
-from ns_pz.process import GroundTruth, NSProcess
+from ns_pz.process import DECISION, GroundTruth, NSProcess, check_seed
 
 
 class NSGymEnv(gym.Env[dict[str, Any], Any]):
@@ -40,7 +43,8 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         notification: ``"none"``, ``"basic"`` or ``"detailed"``.
         constraints: Lipschitz bound and budget on nature.
         max_episode_steps: Transitions after which an episode is truncated.
-        ground_truth_info: Put the θ in force into ``info["theta"]`` (for evaluation only).
+        ground_truth_info: Put the θ of the last transition into ``info["theta"]`` (for
+            evaluation only).
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -66,7 +70,6 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             constraints=constraints,
             max_episode_steps=max_episode_steps,
         )
-        self._build = ObservationBuilder(family)
         self._ground_truth_info = bool(ground_truth_info)
         self.observation_space = agent_observation_space(family)
         self.action_space = family.action_space
@@ -75,36 +78,35 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Start an episode; a seed reseeds the environment, nature, monitor and planning."""
+        """Start an episode; a seed reseeds the environment, nature, monitor and planning.
+
+        Args:
+            seed: A non-negative int, or ``None`` to go on with the current generators.
+            options: ``{"params": θ_0}`` starts this episode from another θ_0 (a parameter set
+                or a mapping of names to values); other keys are refused.
+
+        Raises:
+            TypeError / ValueError: A bad seed or an unknown option.
+        """
+        check_seed(seed)
         super().reset(seed=seed)
         process = self._process
         if seed is not None or process.env_rng is None:
             process.seed(self.np_random_seed)
             self._np_random = process.env_rng
-        process.reset()
-        no_change = process.no_change
-        obs = self._build.agent(process.state, 0, no_change, no_change, True)
-        return obs, self._info()
+        process.reset(options)
+        process.play_until(DECISION)
+        return process.agent_observation(), self._info()
 
     def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
-        """Nature's turn, then the transition under the new θ; the notification is about it."""
+        """The transition under θ_t, then nature's and the monitor's turns of the next step."""
         process = self._process
         if process.done:
             process.check_running("step()")
-        action = process.family.check_action(action)
-        proposal = process.scripted_proposal()
-        if proposal:
-            process.nature_turn(proposal)
-        reward, terminated, truncated = process.transition(action)
-        if process.done:
-            flags = sizes = process.no_change
-        else:
-            observation = None
-            if process.monitor.needs_observation:
-                observation = self._build.monitor(process)
-            flags, sizes = process.notification(observation)
-        quiet = sizes is process.no_change and flags is process.no_change
-        obs = self._build.agent(process.state, process.t, flags, sizes, quiet)
+        reward, terminated, truncated = process.transition(process.family.check_action(action))
+        if not process.done:
+            process.play_until(DECISION)
+        obs = process.agent_observation()
         return obs, float(reward), bool(terminated), bool(truncated), self._info()
 
     # -- ns_pz extras -----------------------------------------------------------------------
@@ -164,7 +166,9 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         """
         return self.branch()
 
-    def branch(self, *, theta: Params | None = None, keep_nature: bool = False) -> NSGymEnv:
+    def branch(
+        self, *, theta: Params | None = None, keep_nature: bool = False, retake_turn: bool = False
+    ) -> NSGymEnv:
         """A copy of this env at the current state and time, on its own generators.
 
         Args:
@@ -172,6 +176,8 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
                 current θ at ``detailed``).
             keep_nature: Let nature go on acting in the copy (from where its schedule is now)
                 instead of freezing θ.
+            retake_turn: With ``keep_nature``, nature moves again in the copy at the current
+                step, from ``theta`` (see :meth:`~ns_pz.process.NSProcess.continuing_copy`).
 
         Raises:
             ResetNeeded: Called before the first reset.
@@ -179,7 +185,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         process = self._process
         twin = copy.copy(self)
         if keep_nature:
-            twin._process = process.continuing_copy(theta)
+            twin._process = process.continuing_copy(theta, retake_turn=retake_turn)
         else:
             twin._process = process.stationary_copy(theta)
         twin._np_random = twin._process.env_rng
@@ -193,7 +199,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
     # -- internals --------------------------------------------------------------------------
     def _info(self) -> dict[str, Any]:
         if self._ground_truth_info:
-            return {"theta": self._process.theta.as_dict()}
+            return {"theta": self._process.last_theta.as_dict()}
         return {}
 
     def __repr__(self) -> str:

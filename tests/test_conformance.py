@@ -82,7 +82,47 @@ class LastRewardAlarm(Monitor):
 
 def test_a_monitor_that_reads_observations_runs_alike_in_game_and_view():
     """Non-oracle monitors get the transition observation in both faces, with equal results."""
-    check_game_matches_view("ns_pz/CartPole-v0", monitor=LastRewardAlarm())
+    check_game_matches_view("ns_pz/CartPole-v0", monitors=(LastRewardAlarm(),))
     env = ns_pz.make_gym("ns_pz/CartPole-v0", monitor=LastRewardAlarm(), notification="basic")
     env.reset(seed=0)
     assert env.step(1)[0]["env_change"].tolist() == [1] * 6  # CartPole pays +1 every step
+
+
+class SharedStateMonitor(Monitor):
+    """A broken monitor: it keeps its count on itself, not in the per-episode memory."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def notify(self, observation, truth, memory, rng):
+        """Raises every flag on every third call, counting calls from every environment."""
+        self.calls += 1
+        alarm = int(self.calls % 3 == 0)
+        return (alarm,) * 6, (0.0,) * 6
+
+
+def test_game_and_view_agree_for_stateful_random_monitors_and_natures():
+    """The default check runs a stateful random monitor (speaking at t = 0) and nature."""
+    check_game_matches_view("ns_pz/CartPole-v0")
+    check_game_matches_view("ns_pz/FrozenLake-v0")
+
+
+def test_a_broken_monitor_fails_the_game_view_check():
+    """A monitor whose state leaks between environments makes the game and the view differ."""
+    with pytest.raises(AssertionError, match="!="):
+        check_game_matches_view("ns_pz/CartPole-v0", monitors=(SharedStateMonitor(),))
+
+
+def test_the_view_asks_the_monitor_at_reset_as_the_game_does():
+    """The monitor's turn of step 0 happens in the view too (it used to be skipped)."""
+    calls = []
+
+    class Recorder(Monitor):
+        def notify(self, observation, truth, memory, rng):
+            calls.append(int(observation["relative_time"][0]))
+            return (0,) * 6, (0.0,) * 6
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", monitor=Recorder(), notification="basic")
+    env.reset(seed=0)
+    env.step(0)
+    assert calls == [0, 1]

@@ -112,8 +112,8 @@ def test_continuous_change_adds_by_each_step_then_holds() -> None:
     env.reset(seed=0)
     seen = []
     for _ in range(13):
+        seen.append(round(env.ground_truth().theta.slip[0], 9))  # θ of the coming transition
         env.step(0)  # UP: CliffWalking only ends at the goal
-        seen.append(round(env.ground_truth().theta.slip[0], 9))
     assert seen == [1.0, 0.98, 0.96, 0.94, 0.92, 0.9, 0.88, 0.86, 0.84, 0.82, 0.8, 0.8, 0.8]
     assert env.ground_truth().change_times == tuple(range(1, 11))
 

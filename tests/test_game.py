@@ -248,3 +248,95 @@ def test_a_scripted_action_from_a_past_episode_is_a_plain_delta():
     game.reset(seed=0)
     game.step(old)
     assert game.ground_truth().theta.masspole == pytest.approx(0.3)  # θ_0 + Δ, not 0.5
+
+
+def test_policy_action_is_asked_once_per_turn():
+    """Two calls in one turn give the same action; the schedule advances once per step."""
+    schedule = StepWiseUpdate(DiscreteScheduler({1, 2}), [0.2, 0.3])
+    game = ns_pz.make("ns_pz/CartPole-v0", nature=ScriptedNature({"masspole": schedule}))
+    game.reset(seed=0)
+    game.step(game.policy_action(NATURE))
+    game.step(game.policy_action(MONITOR))
+    game.step(1)
+    first, second = game.policy_action(NATURE), game.policy_action(NATURE)
+    assert first is second
+    game.step(second)
+    assert game.ground_truth().theta.masspole == pytest.approx(0.2)  # not 0.3
+
+
+def test_policy_action_and_actions_out_of_turn_are_refused():
+    """Asking nature's policy on the monitor's turn (or the reverse) raises, naming the turn."""
+    game = ns_pz.make("ns_pz/CartPole-v0")
+    game.reset(seed=0)
+    with pytest.raises(ValueError, match="it is 'nature''s turn, not 'monitor''s"):
+        game.policy_action(MONITOR)
+    game.step(game.policy_action(NATURE))
+    with pytest.raises(ValueError, match="it is 'monitor''s turn, not 'nature''s"):
+        game.policy_action(NATURE)
+    with pytest.raises(ValueError, match="has no configured policy"):
+        game.policy_action(DECISION)
+
+
+@pytest.mark.parametrize("call", ["action_space", "observation_space", "observe", "policy_action"])
+def test_unknown_agent_names_get_a_clear_error(call):
+    """A misspelt agent name is a ValueError that lists the agents, not a bare KeyError."""
+    game = ns_pz.make("ns_pz/CartPole-v0")
+    game.reset(seed=0)
+    with pytest.raises(ValueError, match=r"agent='nature ' is not one of \('nature'"):
+        getattr(game, call)("nature ")
+
+
+def test_last_after_the_episode_says_so():
+    """last() once every agent has left raises ResetNeeded, not KeyError."""
+    game = ns_pz.make("ns_pz/FrozenLake-v0", max_episode_steps=1)
+    game.reset(seed=0)
+    for agent in game.agent_iter():
+        _, _, terminated, truncated, _ = game.last()
+        if terminated or truncated:
+            game.step(None)
+        else:
+            game.step(game.policy_action(agent) if agent != DECISION else 0)
+    with pytest.raises(ResetNeeded, match="after the episode ended"):
+        game.last()
+
+
+@pytest.mark.parametrize(
+    ("seed", "error", "match"),
+    [
+        (-1, ValueError, "seed=-1 must be a non-negative int"),
+        (1.5, TypeError, "seed=1.5"),
+        (True, TypeError, "seed=True"),
+    ],
+)
+def test_bad_seeds_are_refused_clearly(seed, error, match):
+    """Game and view refuse negative, float and bool seeds with the seed in the message."""
+    with pytest.raises(error, match=match):
+        ns_pz.make("ns_pz/FrozenLake-v0").reset(seed=seed)
+    with pytest.raises(error, match=match):
+        ns_pz.make_gym("ns_pz/FrozenLake-v0").reset(seed=seed)
+
+
+@pytest.mark.parametrize(
+    "action",
+    [np.zeros(6, complex), np.zeros(6, bool), [True] + [False] * 5, [0.0] * 5 + [1j]],
+)
+def test_complex_and_bool_nature_actions_are_refused(action):
+    """Only real vectors are Δθ; complex or bool arrays are refused like any outside the Box."""
+    game = ns_pz.make("ns_pz/CartPole-v0")
+    game.reset(seed=0)
+    with pytest.raises(ValueError, match="nature action="):
+        game.step(action)
+
+
+def test_reset_options_set_theta0_for_one_episode():
+    """reset(options={"params": ...}) starts that episode from another θ_0; unknown keys warn."""
+    for env in (ns_pz.make("ns_pz/CartPole-v0"), ns_pz.make_gym("ns_pz/CartPole-v0")):
+        env.reset(seed=0, options={"params": {"masspole": 0.3}})
+        truth = env.ground_truth()
+        assert truth.theta0.masspole == 0.3 and truth.theta.masspole == 0.3
+        env.reset(seed=0)
+        assert env.ground_truth().theta0.masspole == pytest.approx(0.1)
+        with pytest.warns(UserWarning, match=r"\['colour'\] are not understood"):
+            env.reset(seed=0, options={"colour": "red"})
+        with pytest.raises(ns_pz.ParamOutOfRange, match="masspole=-1"):
+            env.reset(seed=0, options={"params": {"masspole": -1.0}})

@@ -161,24 +161,56 @@ def test_admit_projects_out_of_bounds_proposals():
 def test_admit_enforces_lipschitz_and_budget():
     """Changes are shortened to the per-step bound, then all of them to the budget left."""
     bound = NatureConstraints(lipschitz=0.05)
-    theta, sizes = admit(CartPoleParams(), {"masspole": 0.5}, bound, math.inf)
+    theta, sizes = admit(CartPoleParams(), {"masspole": 0.5}, bound, {})
     assert theta.masspole == pytest.approx(0.15) and sizes == {"masspole": pytest.approx(0.05)}
-    lake, sizes = admit(FrozenLakeParams(slip=(1, 0, 0)), {"slip": (0, 1, 0)}, bound, math.inf)
+    lake, sizes = admit(FrozenLakeParams(slip=(1, 0, 0)), {"slip": (0, 1, 0)}, bound, {})
     assert lake.slip == pytest.approx((0.95, 0.05, 0.0))
     budget = NatureConstraints(budget=1.0)
-    theta, sizes = admit(CartPoleParams(), {"masspole": 1.1, "gravity": 10.8}, budget, 1.0)
+    theta, sizes = admit(CartPoleParams(), {"masspole": 1.1, "gravity": 10.8}, budget, {})
     assert sum(sizes.values()) == pytest.approx(1.0)
     assert theta.masspole == pytest.approx(0.6) and theta.gravity == pytest.approx(10.3)
-    spent, sizes = admit(CartPoleParams(), {"masspole": 0.5}, budget, 0.0)
+    spent, sizes = admit(CartPoleParams(), {"masspole": 0.5}, budget, {"gravity": 1.0})
     assert spent == CartPoleParams() and sizes == {}
+
+
+def test_admit_enforces_per_parameter_and_normalized_budgets():
+    """Per-parameter budgets are in each parameter's unit; the normalised one is shared."""
+    own = NatureConstraints(budget={"masspole": 0.3, "tau": 0.01})
+    theta, sizes = admit(CartPoleParams(), {"masspole": 1.1, "tau": 0.1}, own, {"tau": 0.005})
+    assert theta.masspole == pytest.approx(0.4) and theta.tau == pytest.approx(0.025)
+    assert sizes == {"masspole": pytest.approx(0.3), "tau": pytest.approx(0.005)}
+    theta, _ = admit(CartPoleParams(), {"gravity": 20.0}, own, {})
+    assert theta.gravity == 20.0  # not budgeted
+    # Ranges: masspole (0, 1000] and tau [1e-4, 1]: a normalised budget of 0.001 allows 1 kg of
+    # mass or 0.001 s of time step, and the two changes are shortened by one common factor.
+    normal = NatureConstraints(normalized_budget=0.001)
+    width_m, width_tau = CartPoleParams.spec("masspole").width, CartPoleParams.spec("tau").width
+    theta, sizes = admit(CartPoleParams(), {"masspole": 1.1, "tau": 0.021}, normal, {})
+    used = sizes["masspole"] / width_m + sizes["tau"] / width_tau
+    assert used == pytest.approx(0.001)
+    assert sizes["masspole"] / sizes["tau"] == pytest.approx(1.0 / 0.001)
+
+
+def test_normalized_budget_needs_bounded_parameters():
+    """A parameter without finite bounds has no width to normalise by."""
+    from dataclasses import dataclass
+
+    from ns_pz.params import Params, scalar
+
+    @dataclass(frozen=True)
+    class Free(Params):
+        x: float = scalar(0.0)
+
+    with pytest.raises(ValueError, match="normalized_budget=0.5 needs bounded parameters"):
+        NatureConstraints(normalized_budget=0.5).check_names(Free)
 
 
 def test_admit_refuses_nan_and_unknown_names():
     """NaN has no nearest allowed value; an unknown name is refused."""
     with pytest.raises(ParamOutOfRange, match="masspole=nan is NaN"):
-        admit(CartPoleParams(), {"masspole": math.nan}, NatureConstraints(), math.inf)
+        admit(CartPoleParams(), {"masspole": math.nan}, NatureConstraints(), {})
     with pytest.raises(UnknownParam):
-        admit(CartPoleParams(), {"wind": 1.0}, NatureConstraints(), math.inf)
+        admit(CartPoleParams(), {"wind": 1.0}, NatureConstraints(), {})
 
 
 @pytest.mark.parametrize(

@@ -35,7 +35,8 @@ def test_change_at_step_1_affects_transition_1_and_is_heard_after_it():
     state0 = env._process.state
     obs, *_ = env.step(1)  # transition 0 under θ_0
     assert env._process.state == CartPoleFamily().step(state0, 1, CartPoleParams(), None)[0]
-    assert not obs["env_change"].any() and env.ground_truth().change_times == ()
+    # Nature has already chosen θ_1 (its turn of step 1 follows transition 0); unheard of yet.
+    assert not obs["env_change"].any() and env.ground_truth().change_times == (1,)
     state1 = env._process.state
     obs, *_ = env.step(0)  # transition 1 under θ_1
     expected = CartPoleFamily().step(state1, 0, CartPoleParams(masspole=0.5), None)[0]

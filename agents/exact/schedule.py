@@ -16,7 +16,7 @@ from typing import Any
 
 from ns_pz.nature.policies import RandomNature, ScriptedNature, StaticNature
 from ns_pz.params import Params
-from ns_pz.process import NSProcess
+from ns_pz.process import NATURE, NSProcess
 
 OPEN_LOOP_NATURES = (StaticNature, ScriptedNature, RandomNature)
 """Natures whose θ trajectory is known not to depend on the state or the agent."""
@@ -66,10 +66,8 @@ def theta_trajectory(
     replay.reset()
     thetas = []
     for t in range(horizon):
-        replay.t = t
-        proposal = replay.scripted_proposal()
-        if proposal:
-            replay.nature_turn(proposal)
+        replay.t, replay.turn, replay.done = t, NATURE, False  # nature's turns only, no transitions
+        replay.nature_turn(replay.scripted_proposal())
         thetas.append(replay.theta)
     return tuple(thetas)
 

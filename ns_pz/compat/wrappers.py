@@ -190,13 +190,10 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode; a seed reseeds the env and every scheduler and update function."""
         process = self.process
-        carried = None
         if self.persistent_params and process.started:
-            carried = process.theta, copy.deepcopy(process.nature_memory)
+            options = {**(options or {}), "params": process.last_theta}
+            process.carried_nature_memory = copy.deepcopy(process.nature_memory)
         core_obs, _ = self.core.reset(seed=seed, options=options)
-        if carried is not None:
-            process.theta0 = process.theta = process.last_theta = carried[0]
-            process.nature_memory = carried[1]
         obs = {
             "state": core_obs["state"],
             "env_change": dict(self._zeros_int),
@@ -261,8 +258,12 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         return TUNABLE_PARAMS[self.binding.env_class]
 
     def get_params(self) -> dict[str, Any]:
-        """The parameters in force now, under NS-Gym's names (vectors as lists)."""
-        theta = self.process.theta
+        """The parameters of the last transition (θ_0 before one), under NS-Gym's names.
+
+        Vectors are lists. Nature has already chosen the θ of the coming transition when a step
+        returns; like NS-Gym, this shows the one the last step ran under.
+        """
+        theta = self.process.last_theta
         return {name: _plain(getattr(theta, native)) for name, native in self.binding.names.items()}
 
     def ground_truth(self) -> GroundTruth:
@@ -284,18 +285,21 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         if not process.started:
             raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
         current = self.is_sim_env or self.delta_change_notification
-        return self._sim_copy(process.theta if current else process.theta0)
+        return self._sim_copy(process.last_theta if current else process.theta0)
 
     def _sim_copy(self, theta: Params) -> NSWrapper:
         twin = copy.copy(self)
-        twin.env = self.core.branch(theta=theta, keep_nature=self.in_sim_change)
+        # NS-Gym's sim env applies the schedule at its own first step: nature moves again there.
+        twin.env = self.core.branch(
+            theta=theta, keep_nature=self.in_sim_change, retake_turn=self.in_sim_change
+        )
         twin.is_sim_env = True
         return twin
 
     def __deepcopy__(self, memo: dict[int, Any]) -> NSWrapper:
         """A sim env with the current parameters (as NS-Gym's); before reset, a plain copy."""
         if self.process.started:
-            return self._sim_copy(self.process.theta)
+            return self._sim_copy(self.process.last_theta)
         twin = copy.copy(self)
         twin.env = copy.deepcopy(self.core, memo)
         return twin

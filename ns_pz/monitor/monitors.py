@@ -19,6 +19,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from ns_pz.family import EnvFamily
+from ns_pz.params import Params
+
 Flags = tuple[int, ...]
 Sizes = tuple[float, ...]
 
@@ -35,6 +38,12 @@ class Monitor(ABC):
 
     reads_ground_truth: ClassVar[bool] = False
     needs_observation: ClassVar[bool] = True
+
+    def bind(self, family: EnvFamily, theta0: Params) -> None:  # noqa: B027 - optional hook
+        """Learn, when an environment is built, what a monitor may know before any data.
+
+        That is the family (spaces, the planning model under θ_0) and θ_0, nothing else.
+        """
 
     def initial_memory(self) -> Any:
         """Fresh per-episode memory (``None`` for a memoryless monitor)."""

@@ -18,7 +18,15 @@ from ns_pz.nature.distribution_updates import (
     TargetReversion,
     UniformDrift,
 )
-from ns_pz.nature.policies import Nature, RandomNature, ScriptedNature, StaticNature
+from ns_pz.nature.interface import NatureInterface
+from ns_pz.nature.learned import PolicyNature
+from ns_pz.nature.policies import (
+    Nature,
+    RandomNature,
+    ScriptedNature,
+    StaticNature,
+    TrajectoryNature,
+)
 from ns_pz.nature.scalar_updates import (
     BoundedRandomWalk,
     CyclicUpdate,
@@ -102,15 +110,13 @@ DISTRIBUTION_UPDATES = (
 """Every update function for probability-vector parameters."""
 
 __all__ = [
-    "DISTRIBUTION_UPDATES",
-    "SCALAR_UPDATES",
-    "SCHEDULERS",
     "BoundedRandomWalk",
     "BudgetBoundedIncrement",
     "BurstScheduler",
     "ContinuousScheduler",
     "CustomScheduler",
     "CyclicUpdate",
+    "DISTRIBUTION_UPDATES",
     "DecayingProbabilityScheduler",
     "DecrementUpdate",
     "DeterministicTrend",
@@ -130,10 +136,12 @@ __all__ = [
     "MemorylessScheduler",
     "Nature",
     "NatureConstraints",
+    "NatureInterface",
     "NoUpdate",
     "OrnsteinUhlenbeck",
     "OscillatingUpdate",
     "PeriodicScheduler",
+    "PolicyNature",
     "PolynomialTrend",
     "RandomCategorical",
     "RandomNature",
@@ -141,12 +149,15 @@ __all__ = [
     "RandomWalk",
     "RandomWalkWithDrift",
     "RandomWalkWithDriftAndTrend",
+    "SCALAR_UPDATES",
+    "SCHEDULERS",
     "Scheduler",
     "ScriptedNature",
     "SigmoidTransition",
     "StaticNature",
     "StepWiseUpdate",
     "TargetReversion",
+    "TrajectoryNature",
     "UniformDrift",
     "UpdateFn",
     "WindowScheduler",

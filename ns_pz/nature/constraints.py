@@ -32,20 +32,36 @@ from ns_pz.params import SIMPLEX, Params, ParamSpec, Value
 class NatureConstraints:
     """Limits on nature beyond the parameter bounds.
 
+    Change sizes are those of :meth:`ns_pz.params.Params.change_sizes`, each in its parameter's
+    own unit (N, kg, s; total variation for a probability vector).
+
     Attributes:
         lipschitz: Largest change size per step, one number for every parameter or a mapping
             from parameter name to its bound (parameters not named are unbounded). ``None``:
             no per-step bound.
-        budget: Largest sum of change sizes over an episode. ``None``: unlimited.
+        budget: Largest sum of change sizes over an episode: one number for all parameters
+            together (meaningful when they share a unit, e.g. one slip vector), or a mapping from
+            parameter name to that parameter's own budget in its unit (parameters not named are
+            unlimited). ``None``: unlimited.
+        normalized_budget: Largest sum over an episode of change sizes each divided by the
+            width of its parameter's range (``high - low``; 1 for a probability vector): one
+            dimensionless total across parameters of different units. ``None``: unlimited.
     """
 
     lipschitz: float | Mapping[str, float] | None = None
-    budget: float | None = None
+    budget: float | Mapping[str, float] | None = None
+    normalized_budget: float | None = None
     _per_param: Mapping[str, float] = field(default_factory=dict, init=False, repr=False)
+    _budget_per_param: Mapping[str, float] = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if self.budget is not None:
+        if isinstance(self.budget, Mapping):
+            per = {n: _check_limit(f"budget[{n!r}]", v) for n, v in self.budget.items()}
+            object.__setattr__(self, "_budget_per_param", per)
+        elif self.budget is not None:
             _check_limit("budget", self.budget)
+        if self.normalized_budget is not None:
+            _check_limit("normalized_budget", self.normalized_budget)
         if isinstance(self.lipschitz, Mapping):
             per = {n: _check_limit(f"lipschitz[{n!r}]", v) for n, v in self.lipschitz.items()}
             object.__setattr__(self, "_per_param", per)
@@ -53,8 +69,21 @@ class NatureConstraints:
             _check_limit("lipschitz", self.lipschitz)
 
     def check_names(self, params_cls: type[Params]) -> None:
-        """Raise :class:`~ns_pz.errors.UnknownParam` if a Lipschitz bound names no parameter."""
+        """Check the constraints fit a parameter set.
+
+        Raises:
+            UnknownParam: A bound or budget names no parameter.
+            ValueError: ``normalized_budget`` is set but a parameter has an unbounded range.
+        """
         params_cls.check_names(self._per_param)
+        params_cls.check_names(self._budget_per_param)
+        if self.normalized_budget is not None:
+            for spec in params_cls.specs():
+                if not math.isfinite(spec.width):
+                    raise ValueError(
+                        f"normalized_budget={self.normalized_budget!r} needs bounded parameters; "
+                        f"{params_cls.__name__}.{spec.name} ranges over {spec.allowed()}"
+                    )
 
     def lipschitz_of(self, name: str) -> float | None:
         """The per-step bound of one parameter, or ``None``."""
@@ -62,20 +91,60 @@ class NatureConstraints:
             return self._per_param.get(name)
         return float(self.lipschitz)
 
+    def budget_of(self, name: str) -> float | None:
+        """The episode budget of one parameter alone (a per-parameter ``budget``), or ``None``."""
+        return self._budget_per_param.get(name)
+
+    @property
+    def total_budget(self) -> float | None:
+        """The budget shared by all parameters (a single-number ``budget``), or ``None``."""
+        return None if self.budget is None or isinstance(self.budget, Mapping) else self.budget
+
+    @property
+    def has_budget(self) -> bool:
+        """Whether any episode budget applies."""
+        return self.budget is not None or self.normalized_budget is not None
+
+    @property
+    def unconstrained(self) -> bool:
+        """Whether nothing limits nature beyond the bounds."""
+        return self.lipschitz is None and not self.has_budget
+
+
+def budget_fractions_left(
+    constraints: NatureConstraints, params_cls: type[Params], spent: Mapping[str, float]
+) -> tuple[float, ...]:
+    """What is left of each budget as a fraction in [0, 1]: total, normalised, per parameter.
+
+    Args:
+        constraints: The budgets.
+        params_cls: The parameter set (its field order orders the per-parameter fractions).
+        spent: Change size charged to each parameter so far this episode (missing: 0).
+
+    Returns:
+        ``(total, normalised, *per_parameter)``; 1.0 for a budget that does not exist, and for
+        a budget of 0 (nothing to spend, nothing spent).
+    """
+    total_budget = constraints.total_budget
+    total = _fraction(total_budget, math.fsum(spent.values()))
+    normalized = _fraction(constraints.normalized_budget, _normalized_spent(params_cls, spent))
+    per = [_fraction(constraints.budget_of(n), spent.get(n, 0.0)) for n in params_cls.names()]
+    return (total, normalized, *per)
+
 
 def admit(
     theta: Params,
     proposal: Mapping[str, object],
     constraints: NatureConstraints,
-    budget_left: float,
+    spent: Mapping[str, float],
 ) -> tuple[Params, dict[str, float] | None]:
     """Project nature's proposal onto the allowed set.
 
     Args:
         theta: The current θ.
         proposal: New values for some parameters, by name. Values may be out of bounds.
-        constraints: Lipschitz bound and budget.
-        budget_left: What remains of the episode budget (``inf`` when there is none).
+        constraints: Lipschitz bounds and budgets.
+        spent: Change size charged to each parameter so far this episode (missing: 0).
 
     Returns:
         The new θ (``theta`` itself when nothing changes) and the size of each change that
@@ -89,7 +158,7 @@ def admit(
     owner = type(theta).__name__
     by_name = Params.layout_of(theta).by_name
     granted: dict[str, Value] = {}
-    if constraints.lipschitz is None and budget_left == math.inf:
+    if constraints.unconstrained:
         for name, raw in proposal.items():
             spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
             new = spec.project(owner, raw)
@@ -97,7 +166,6 @@ def admit(
                 granted[name] = new
         return (theta.evolve_trusted(granted) if granted else theta), None
     sizes: dict[str, float] = {}
-    free = constraints.lipschitz is None
     for name, raw in proposal.items():
         spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
         old = getattr(theta, name)
@@ -105,24 +173,58 @@ def admit(
         if new == old:
             continue
         size = spec.distance(old, new)
-        if not free:
-            limit = constraints.lipschitz_of(name)
-            if limit is not None and size > limit:
-                new = _towards(spec, old, new, limit / size)
-                size = spec.distance(old, new)
-                if size == 0.0:  # the bound allows no move at all
-                    continue
+        limit = constraints.lipschitz_of(name)
+        own = constraints.budget_of(name)
+        if own is not None:
+            left = max(own - spent.get(name, 0.0), 0.0)
+            limit = left if limit is None else min(limit, left)
+        if limit is not None and size > limit:
+            new = _towards(spec, old, new, limit / size)
+            size = spec.distance(old, new)
+            if size == 0.0:  # the bound allows no move at all
+                continue
         granted[name] = new
         sizes[name] = size
     if not granted:
         return theta, sizes
-    if budget_left != math.inf:
-        total = math.fsum(sizes.values())
-        if total > budget_left:
-            granted, sizes = _within_budget(theta, granted, sizes, budget_left / total)
-            if not granted:
-                return theta, sizes
+    factor = _shared_budget_factor(type(theta), constraints, spent, sizes)
+    if factor < 1.0:
+        granted, sizes = _within_budget(theta, granted, sizes, factor)
+        if not granted:
+            return theta, sizes
     return theta.evolve_trusted(granted), sizes
+
+
+def _shared_budget_factor(
+    params_cls: type[Params],
+    constraints: NatureConstraints,
+    spent: Mapping[str, float],
+    sizes: Mapping[str, float],
+) -> float:
+    """The common factor (<= 1) that keeps the changes within the total and normalised budgets."""
+    factor = 1.0
+    total_budget = constraints.total_budget
+    if total_budget is not None:
+        left = max(total_budget - math.fsum(spent.values()), 0.0)
+        total = math.fsum(sizes.values())
+        if total > left:
+            factor = left / total
+    if constraints.normalized_budget is not None:
+        left = max(constraints.normalized_budget - _normalized_spent(params_cls, spent), 0.0)
+        total = _normalized_spent(params_cls, sizes)
+        if total > left:
+            factor = min(factor, left / total)
+    return factor
+
+
+def _normalized_spent(params_cls: type[Params], sizes: Mapping[str, float]) -> float:
+    return math.fsum(size / params_cls.spec(name).width for name, size in sizes.items())
+
+
+def _fraction(budget: float | None, spent: float) -> float:
+    if not budget:
+        return 1.0
+    return min(max(1.0 - spent / budget, 0.0), 1.0)
 
 
 def _within_budget(

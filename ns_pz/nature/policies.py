@@ -14,12 +14,15 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ns_pz.nature.updates import DistributionUpdateFn, UpdateFn, check_real
 from ns_pz.params import SIMPLEX, Params, Value
+
+if TYPE_CHECKING:
+    from ns_pz.process import NSProcess
 
 Proposal = Mapping[str, Value] | None
 
@@ -33,6 +36,21 @@ class Nature(ABC):
     def initial_memory(self) -> Any:
         """Fresh per-episode memory (``None`` for a memoryless policy)."""
         return None
+
+    def act(self, process: NSProcess) -> Proposal:
+        """The proposal for the process's current step; the game calls this once per step.
+
+        The default asks :meth:`propose` with the step, θ, the budget left, the episode memory
+        and nature's generator. Natures that read more of the process (a learned policy that
+        observes the agent's state) override it.
+        """
+        return self.propose(
+            process.t,
+            process.theta,
+            process.budget_left,
+            process.nature_memory,
+            process.nature_rng,  # type: ignore[arg-type]
+        )
 
     @abstractmethod
     def propose(
@@ -178,3 +196,36 @@ class RandomNature(Nature):
 
     def __repr__(self) -> str:
         return f"RandomNature(scale={self.scale!r})"
+
+
+class TrajectoryNature(Nature):
+    """Replays a recorded θ trajectory: at each recorded step, the θ recorded for it.
+
+    Args:
+        change_times: Steps at which θ changed (as :attr:`ns_pz.GroundTruth.change_times`).
+        change_values: θ after each of those changes.
+
+    Raises:
+        ValueError: The two have different lengths, or the times are not increasing.
+    """
+
+    def __init__(self, change_times: tuple[int, ...] | list[int], change_values: Any) -> None:
+        times = tuple(int(t) for t in change_times)
+        values = tuple(change_values)
+        if len(times) != len(values):
+            raise ValueError(
+                f"change_times has {len(times)} entries but change_values {len(values)}"
+            )
+        if any(b <= a for a, b in zip(times, times[1:], strict=False)):
+            raise ValueError(f"change_times={times!r} must be strictly increasing")
+        self._by_time = dict(zip(times, values, strict=True))
+
+    def propose(
+        self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
+    ) -> Proposal:
+        """Every field of the θ recorded for ``t``, or ``None`` if none was."""
+        target = self._by_time.get(t)
+        return None if target is None else target.as_dict()
+
+    def __repr__(self) -> str:
+        return f"TrajectoryNature(change_times={tuple(self._by_time)!r})"

@@ -1,0 +1,227 @@
+"""Nature's seat as a policy meets it: one observation encoding and one action convention.
+
+Every nature that is not a schedule — a network being trained in the game or in
+:func:`ns_pz.single_agent`, a trained policy put back with :class:`ns_pz.nature.PolicyNature` —
+sees and acts through one :class:`NatureInterface`, so a policy trained in one place acts the
+same in every other.
+
+**Observation** (``Box``, float32, always finite), in this order:
+
+* ``time``: ``t / max_episode_steps`` (``t`` itself when the episode has no limit);
+* ``offset`` (one per flat θ element, field order): ``(θ - θ_0) / allowance``, how many per-step
+  allowances each element has moved since reset;
+* ``budget`` (``2 + number of parameters``): the fraction left of the total budget, of the
+  normalised budget and of each parameter's own budget, 1.0 for a budget that does not exist;
+* ``budgeted``: 1.0 if any budget applies, else 0.0;
+* with ``observes_state=True``: the decision agent's state (Gymnasium's ``flatten`` of the base
+  observation: one-hot for a grid cell) and its last action (flattened likewise; zeros before the
+  first).
+
+**Actions**:
+
+* ``"normalized"`` (default for learners): ``Box(-1, 1)`` per flat θ element. A scalar moves by
+  ``action × allowance``. A probability vector moves by its centred action scaled by the
+  allowance, shortened so the total-variation distance is at most the allowance, then
+  projected onto the simplex. The allowance of a parameter is its Lipschitz bound, or
+  ``default_step × (high - low)`` when it has none (1 for a probability vector).
+* ``"delta"``: Δθ itself, ``Box(-(high - low), high - low)`` per flat element (the game's
+  default, exact for scripted values).
+
+Zero means "no change" in both. The game then projects the proposal onto the allowed set
+(:func:`ns_pz.nature.constraints.admit`), whatever the action.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from gymnasium import spaces
+
+from ns_pz.family import EnvFamily
+from ns_pz.nature.constraints import NatureConstraints, budget_fractions_left
+from ns_pz.params import SIMPLEX, Params
+
+if TYPE_CHECKING:
+    from ns_pz.process import NSProcess
+
+NATURE_ACTIONS = ("normalized", "delta")
+DEFAULT_STEP = 0.01
+"""Per-step allowance of a parameter without a Lipschitz bound, as a fraction of its range."""
+
+
+class NatureInterface:
+    """Observation encoding and action decoding of nature's seat for one family and constraints.
+
+    Args:
+        family: The environment family.
+        constraints: Lipschitz bounds (they set the allowances) and budgets (observed).
+        max_episode_steps: The time limit (scales ``time``), or ``None``.
+        action: ``"normalized"`` or ``"delta"`` (see the module docstring).
+        observes_state: Add the decision agent's state and last action to the observation.
+        default_step: Allowance of a parameter without a Lipschitz bound, as a fraction of its
+            range; in (0, 1].
+
+    Raises:
+        ValueError: An option outside its allowed values.
+    """
+
+    def __init__(
+        self,
+        family: EnvFamily,
+        constraints: NatureConstraints,
+        max_episode_steps: int | None,
+        *,
+        action: str = "normalized",
+        observes_state: bool = False,
+        default_step: float = DEFAULT_STEP,
+    ) -> None:
+        if action not in NATURE_ACTIONS:
+            raise ValueError(f"nature_action={action!r}; allowed: {NATURE_ACTIONS}")
+        if not isinstance(observes_state, bool):
+            raise TypeError(f"nature_observes_state={observes_state!r} must be a bool")
+        if isinstance(default_step, bool) or not isinstance(default_step, (int, float)):
+            raise TypeError(f"default_step={default_step!r} must be a number in (0, 1]")
+        if not 0.0 < default_step <= 1.0:
+            raise ValueError(f"default_step={default_step!r} must be in (0, 1]")
+        params_cls = family.params_cls
+        self.action_mode = action
+        self.observes_state = observes_state
+        self._params_cls = params_cls
+        self._constraints = constraints
+        self._limit = max_episode_steps
+        self._layout = [(spec, start, stop) for spec, start, stop in params_cls.flat_layout()]
+        low, high = params_cls.flat_bounds()
+        width = high - low
+        allowance = np.empty_like(width)
+        for spec, start, stop in self._layout:
+            bound = constraints.lipschitz_of(spec.name)
+            allowance[start:stop] = default_step * spec.width if bound is None else bound
+        self.allowance = allowance
+        """Per-step allowance of each flat θ element (``[flat size]``)."""
+        self._offset_scale = np.where(allowance > 0.0, allowance, 1.0)
+        if action == "normalized":
+            self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (len(width),), np.float32)
+        else:
+            self.action_space = spaces.Box(-width, width, dtype=np.float64)  # type: ignore[arg-type]
+        self._state_space = family.observation_space if observes_state else None
+        self._action_of_agent = family.action_space if observes_state else None
+        self.observation_space = self._observation_space(width)
+
+    # -- observation ------------------------------------------------------------------------
+    def _observation_space(self, width: np.ndarray) -> spaces.Box:
+        reach = (width / self._offset_scale).astype(np.float32)
+        n_budgets = 2 + len(self._params_cls.names())
+        time_high = 1.0 if self._limit is not None else np.inf
+        low: list[np.ndarray] = [np.zeros(1), -reach, np.zeros(n_budgets), np.zeros(1)]
+        high: list[np.ndarray] = [np.full(1, time_high), reach, np.ones(n_budgets), np.ones(1)]
+        for space in (self._state_space, self._action_of_agent):
+            if space is not None:
+                flat = spaces.flatten_space(space)
+                if not isinstance(flat, spaces.Box):
+                    raise TypeError(f"nature cannot observe a state in {space} (not flat)")
+                low.append(flat.low)
+                high.append(flat.high)
+        return spaces.Box(
+            np.concatenate(low).astype(np.float32),
+            np.concatenate(high).astype(np.float32),
+            dtype=np.float32,
+        )
+
+    def observe(self, process: NSProcess) -> np.ndarray:
+        """Nature's observation of ``process`` now (a fresh array)."""
+        t = process.t if self._limit is None else process.t / self._limit
+        offset = (process.theta.flat() - process.theta0.flat()) / self._offset_scale
+        budgets = budget_fractions_left(self._constraints, self._params_cls, process.spent)
+        parts = [np.array([t]), offset, np.array(budgets), [float(self._constraints.has_budget)]]
+        if self._state_space is not None:
+            parts.append(spaces.flatten(self._state_space, process.family.observe(process.state)))
+            assert self._action_of_agent is not None  # set together with _state_space
+            last = process.last_action
+            flat_action = spaces.flatten_space(self._action_of_agent)
+            if last is None:
+                parts.append(np.zeros(flat_action.shape, np.float32))
+            else:
+                parts.append(spaces.flatten(self._action_of_agent, last))
+        return np.concatenate(parts).astype(np.float32)
+
+    # -- actions ----------------------------------------------------------------------------
+    def proposal(self, action: Any, theta: Params) -> dict[str, Any] | None:
+        """The new θ values ``action`` asks for (``None`` for no change), before projection.
+
+        Raises:
+            ValueError: ``action`` is not a real vector inside :attr:`action_space`.
+        """
+        values = self._checked(action)
+        if not any(values):
+            return None
+        if self.action_mode == "normalized":
+            return self._normalized_proposal(values, theta)
+        proposal: dict[str, Any] = {}
+        for spec, start, stop in self._layout:
+            chunk = values[start:stop]
+            if any(chunk):
+                value = getattr(theta, spec.name)
+                if spec.kind == SIMPLEX:
+                    proposal[spec.name] = tuple([p + d for p, d in zip(value, chunk, strict=True)])
+                else:
+                    proposal[spec.name] = value + chunk[0]
+        return proposal
+
+    def _normalized_proposal(self, values: list[float], theta: Params) -> dict[str, Any]:
+        allowance = self.allowance
+        proposal: dict[str, Any] = {}
+        for spec, start, stop in self._layout:
+            chunk = values[start:stop]
+            if not any(chunk):
+                continue
+            value = getattr(theta, spec.name)
+            if spec.kind == SIMPLEX:
+                mean = sum(chunk) / len(chunk)
+                centred = [c - mean for c in chunk]
+                shrink = max(0.5 * sum(map(abs, centred)), 1.0)
+                step = allowance[start] / shrink
+                proposal[spec.name] = tuple(
+                    [p + step * c for p, c in zip(value, centred, strict=True)]
+                )
+            else:
+                proposal[spec.name] = value + allowance[start] * chunk[0]
+        return proposal
+
+    def action_of(self, theta: Params, proposal: Any) -> np.ndarray:
+        """The action (clipped into the action space) that asks to move ``theta`` to ``proposal``.
+
+        Args:
+            theta: The θ in force.
+            proposal: New values by parameter name, or ``None``.
+        """
+        current = theta.flat()
+        delta = np.zeros_like(current)
+        for spec, start, stop in self._layout:
+            if proposal and spec.name in proposal:
+                delta[start:stop] = (
+                    np.asarray(proposal[spec.name], np.float64) - current[start:stop]
+                )
+        if self.action_mode == "normalized":
+            delta = delta / self._offset_scale
+        space = self.action_space
+        return np.clip(delta, space.low, space.high).astype(space.dtype)
+
+    def _checked(self, action: Any) -> list[float]:
+        space = self.action_space
+        if not (isinstance(action, np.ndarray) and action.dtype.kind in "fiu"):
+            if isinstance(action, (list, tuple)) and all(
+                type(x) in (int, float) or isinstance(x, (np.floating, np.integer)) for x in action
+            ):
+                action = np.asarray(action, np.float64)
+            else:
+                raise ValueError(
+                    f"nature action={action!r} must be a real vector in the action space {space}"
+                )
+        values = action.ravel().tolist() if action.ndim == 1 else None
+        if values is None or len(values) != space.shape[0]:
+            raise ValueError(f"nature action={action!r} is outside the action space {space}")
+        total = sum(values)
+        if not (total == total and np.all(space.low <= action) and np.all(action <= space.high)):
+            raise ValueError(f"nature action={action!r} is outside the action space {space}")
+        return values

@@ -1,0 +1,79 @@
+"""A nature driven by any policy over nature's observation: a trained adversary, put anywhere.
+
+:class:`PolicyNature` is a :class:`~ns_pz.nature.policies.Nature`, so it goes wherever a
+schedule goes — ``gym.make(..., nature=...)``, :func:`ns_pz.make`, the experiment runner, the
+exact tools — and sees and acts exactly as a learner in nature's seat does, through the one
+:class:`~ns_pz.nature.interface.NatureInterface` of the process it drives.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS
+from ns_pz.nature.policies import Nature, Proposal
+from ns_pz.params import Params
+from ns_pz.seat_policies import call_policy, check_policy
+
+if TYPE_CHECKING:
+    from ns_pz.process import NSProcess
+
+
+class PolicyNature(Nature):
+    """Nature played by a policy: a callable ``obs -> action`` or an SB3-style model.
+
+    Args:
+        policy: The policy; SB3 models are asked with ``predict(obs, deterministic=...)``.
+        action: The action convention the policy was trained with: ``"normalized"`` (default,
+            as :func:`ns_pz.single_agent` trains) or ``"delta"``.
+        observes_state: Whether its observation includes the agent's state and last action.
+        default_step: Allowance of a parameter without a Lipschitz bound, as a fraction of its
+            range (as in training).
+        deterministic: Passed to ``predict``.
+
+    Raises:
+        TypeError / ValueError: An argument outside its allowed values.
+    """
+
+    def __init__(
+        self,
+        policy: Any,
+        *,
+        action: str = "normalized",
+        observes_state: bool = False,
+        default_step: float = DEFAULT_STEP,
+        deterministic: bool = True,
+    ) -> None:
+        check_policy(policy, "nature")
+        if action not in NATURE_ACTIONS:
+            raise ValueError(f"action={action!r}; allowed: {NATURE_ACTIONS}")
+        self.policy = policy
+        self.action = action
+        self.observes_state = bool(observes_state)
+        self.default_step = default_step
+        self.deterministic = deterministic
+
+    def act(self, process: NSProcess) -> Proposal:
+        """Observe ``process`` as a learner in nature's seat would, and decode the action."""
+        interface = process.nature_interface(self.action, self.observes_state, self.default_step)
+        observation = interface.observe(process)
+        action = call_policy(self.policy, observation, deterministic=self.deterministic)
+        return interface.proposal(np.asarray(action), process.theta)
+
+    def propose(
+        self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
+    ) -> Proposal:
+        """Not available: a policy nature reads the whole observation (see :meth:`act`).
+
+        Raises:
+            TypeError: Always.
+        """
+        raise TypeError(
+            "PolicyNature acts through act(process); it has no state-free propose(). Put it in "
+            "an environment (nature=PolicyNature(...)) instead of calling propose() directly."
+        )
+
+    def __repr__(self) -> str:
+        return f"PolicyNature({self.policy!r}, action={self.action!r})"
