@@ -28,11 +28,18 @@ import gymnasium
 from ns_pz.errors import UnknownEnvironment
 from ns_pz.family import EnvFamily
 from ns_pz.game import NSGame
+from ns_pz.regret import default_reference
 from ns_pz.views import NSGymEnv
 
 _NS_KWARGS = {"params", "nature", "monitor", "notification", "constraints", "max_episode_steps"}
 _VIEW_KWARGS = _NS_KWARGS | {"ground_truth_info"}
-_GAME_KWARGS = _NS_KWARGS | {"nature_reward"}
+_GAME_KWARGS = _NS_KWARGS | {
+    "nature_reward",
+    "regret_reference",
+    "nature_action",
+    "nature_observes_state",
+    "monitor_action",
+}
 
 
 @dataclass(frozen=True)
@@ -107,7 +114,10 @@ def make(env_id: str, **kwargs: Any) -> NSGame:
     env_spec = spec(env_id)
     ns_kwargs, family_kwargs = _split(kwargs, _GAME_KWARGS)
     ns_kwargs.setdefault("max_episode_steps", env_spec.max_episode_steps)
-    return NSGame(env_spec.build_family(family_kwargs, _GAME_KWARGS), **ns_kwargs)
+    family = env_spec.build_family(family_kwargs, _GAME_KWARGS)
+    if ns_kwargs.get("nature_reward") == "regret" and ns_kwargs.get("regret_reference") is None:
+        ns_kwargs["regret_reference"] = default_reference(family)
+    return NSGame(family, **ns_kwargs)
 
 
 def make_gym(env_id: str, **kwargs: Any) -> NSGymEnv:

@@ -26,6 +26,7 @@ from ns_pz.process import GroundTruth
 from ns_pz.views import NSGymEnv
 
 from ns_pz.envs.registry import make, make_gym, register, registered_envs, spec  # isort: skip
+from ns_pz.seats import single_agent  # isort: skip
 
 __version__ = "0.1.0"
 
@@ -53,5 +54,6 @@ __all__ = [
     "registered_envs",
     "scalar",
     "simplex",
+    "single_agent",
     "spec",
 ]

@@ -143,6 +143,8 @@ class NSProcess:
         self._interfaces: dict[tuple, NatureInterface] = {}
         self.started = False
         self.done = True
+        self.ended = (False, False)
+        """(terminated, truncated) of the last transition."""
         self.turn = NATURE
         """Whose turn it is: ``"nature"``, ``"monitor"`` or ``"agent"``."""
         self.state: State = None
@@ -234,6 +236,7 @@ class NSProcess:
         self._pending = None
         self.started = True
         self.done = False
+        self.ended = (False, False)
         self.turn = NATURE
 
     def check_running(self, what: str) -> None:
@@ -412,6 +415,7 @@ class NSProcess:
         self.t += 1
         limit = self.max_episode_steps
         truncated = limit is not None and self.t >= limit
+        self.ended = (bool(terminated), truncated)
         self.done = terminated or truncated
         self.turn = NATURE
         if self.done:
@@ -464,6 +468,7 @@ class NSProcess:
         if interface is None:
             interface = NatureInterface(
                 self.family,
+                self.base_theta0,
                 self.constraints,
                 self.max_episode_steps,
                 action=action,

@@ -25,6 +25,7 @@ from ns_pz.nature.policies import TrajectoryNature
 from ns_pz.seat_policies import DecisionPolicy
 
 if TYPE_CHECKING:
+    from ns_pz.family import EnvFamily
     from ns_pz.process import NSProcess
 
 NATURE_REWARDS = ("zero_sum", "cooperative", "none", "regret")
@@ -118,3 +119,19 @@ class ReplayReference:
             episode_return, _ = replay.play_until(None, self.decide)
             total += episode_return
         return total / self.episodes
+
+
+def default_reference(family: EnvFamily) -> RegretReference:
+    """The exact oracle on a tabular family; elsewhere a reference must be named.
+
+    Raises:
+        ValueError: ``family`` is not tabular.
+    """
+    from ns_pz.agents.exact import OracleReference
+
+    if not callable(getattr(family, "outcomes", None)):
+        raise ValueError(
+            f"nature_reward='regret' on {family!r} (not tabular) needs regret_reference= "
+            "(e.g. ns_pz.regret.ReplayReference(reference_policy))"
+        )
+    return OracleReference()

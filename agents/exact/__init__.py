@@ -19,6 +19,7 @@ from ns_pz.agents.exact.references import (
     stale_policy,
     start_value,
 )
+from ns_pz.agents.exact.regret_reference import OracleReference
 from ns_pz.agents.exact.robust import (
     equal_split,
     robust_backward_induction,
@@ -29,6 +30,7 @@ from ns_pz.agents.exact.schedule import theta_trajectory
 
 __all__ = [
     "FiniteHorizonSolution",
+    "OracleReference",
     "PolicyAgent",
     "backward_induction",
     "equal_split",

@@ -22,8 +22,11 @@ same in every other.
 * ``"normalized"`` (default for learners): ``Box(-1, 1)`` per flat θ element. A scalar moves by
   ``action × allowance``. A probability vector moves by its centred action scaled by the
   allowance, shortened so the total-variation distance is at most the allowance, then
-  projected onto the simplex. The allowance of a parameter is its Lipschitz bound, or
-  ``default_step × (high - low)`` when it has none (1 for a probability vector).
+  projected onto the simplex. The allowance of a parameter is its Lipschitz bound, or, when it
+  has none, ``default_step`` times its size at θ_0 (``|θ_0|``; the width of its range if θ_0 is
+  0; 1 for a probability vector). A fraction of the value rather than of the range: physical
+  ranges are wide (CartPole's gravity may lie in [0, 1000]), and 1 % of them would let one
+  action move gravity by 10 m/s².
 * ``"delta"``: Δθ itself, ``Box(-(high - low), high - low)`` per flat element (the game's
   default, exact for scripted values).
 
@@ -33,6 +36,7 @@ Zero means "no change" in both. The game then projects the proposal onto the all
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -47,7 +51,7 @@ if TYPE_CHECKING:
 
 NATURE_ACTIONS = ("normalized", "delta")
 DEFAULT_STEP = 0.01
-"""Per-step allowance of a parameter without a Lipschitz bound, as a fraction of its range."""
+"""Per-step allowance of a parameter without a Lipschitz bound, as a fraction of its θ_0 size."""
 
 
 class NatureInterface:
@@ -55,12 +59,13 @@ class NatureInterface:
 
     Args:
         family: The environment family.
+        theta0: θ_0 (it scales the allowance of parameters without a Lipschitz bound).
         constraints: Lipschitz bounds (they set the allowances) and budgets (observed).
         max_episode_steps: The time limit (scales ``time``), or ``None``.
         action: ``"normalized"`` or ``"delta"`` (see the module docstring).
         observes_state: Add the decision agent's state and last action to the observation.
         default_step: Allowance of a parameter without a Lipschitz bound, as a fraction of its
-            range; in (0, 1].
+            size at θ_0; in (0, 1].
 
     Raises:
         ValueError: An option outside its allowed values.
@@ -69,6 +74,7 @@ class NatureInterface:
     def __init__(
         self,
         family: EnvFamily,
+        theta0: Params,
         constraints: NatureConstraints,
         max_episode_steps: int | None,
         *,
@@ -96,7 +102,15 @@ class NatureInterface:
         allowance = np.empty_like(width)
         for spec, start, stop in self._layout:
             bound = constraints.lipschitz_of(spec.name)
-            allowance[start:stop] = default_step * spec.width if bound is None else bound
+            if bound is None:
+                size = 1.0 if spec.kind == SIMPLEX else abs(getattr(theta0, spec.name))
+                bound = default_step * (size or spec.width)
+                if not math.isfinite(bound):
+                    raise ValueError(
+                        f"{params_cls.__name__}.{spec.name} is 0 at θ_0 and unbounded, so it has "
+                        "no default per-step allowance; give it a Lipschitz bound"
+                    )
+            allowance[start:stop] = bound
         self.allowance = allowance
         """Per-step allowance of each flat θ element (``[flat size]``)."""
         self._offset_scale = np.where(allowance > 0.0, allowance, 1.0)

@@ -30,7 +30,7 @@ class PolicyNature(Nature):
             as :func:`ns_pz.single_agent` trains) or ``"delta"``.
         observes_state: Whether its observation includes the agent's state and last action.
         default_step: Allowance of a parameter without a Lipschitz bound, as a fraction of its
-            range (as in training).
+            size at θ_0 (as in training).
         deterministic: Passed to ``predict``.
 
     Raises:

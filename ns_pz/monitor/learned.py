@@ -1,0 +1,58 @@
+"""A monitor played by any policy over the monitor's observation (a learned detector)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ns_pz.family import EnvFamily
+from ns_pz.monitor.monitors import Flags, Monitor, Sizes
+from ns_pz.params import Params
+from ns_pz.seat_policies import call_policy, check_policy
+
+
+class PolicyMonitor(Monitor):
+    """The monitor's seat played by a policy that raises flags, as a learner in that seat does.
+
+    The policy maps the monitor observation (:func:`ns_pz.observations.monitor_observation_space`)
+    to one 0/1 flag per parameter (``MultiDiscrete([2] * n)``); it reports no change sizes, so
+    at ``detailed`` the agent hears flags with zero sizes.
+
+    Args:
+        policy: A callable ``obs -> flags`` or an SB3-style model.
+        deterministic: Passed to ``predict``.
+    """
+
+    def __init__(self, policy: Any, *, deterministic: bool = True) -> None:
+        check_policy(policy, "monitor")
+        self.policy = policy
+        self.deterministic = deterministic
+        self._count = 0
+
+    def bind(self, family: EnvFamily, theta0: Params) -> None:
+        """Learn the number of parameters (one flag each)."""
+        self._count = len(family.params_cls.names())
+
+    def notify(
+        self,
+        observation: dict[str, Any] | None,
+        truth: Sequence[float] | None,
+        memory: Any,
+        rng: np.random.Generator,
+    ) -> tuple[Flags, Sizes]:
+        """The policy's flags for ``observation``; sizes zero.
+
+        Raises:
+            ValueError: The policy's answer is not one 0/1 flag per parameter.
+        """
+        flags = np.asarray(call_policy(self.policy, observation, deterministic=self.deterministic))
+        if flags.shape != (self._count,) or not np.isin(flags, (0, 1)).all():
+            raise ValueError(
+                f"the monitor policy answered {flags!r}; it must give {self._count} flags of 0/1"
+            )
+        return tuple(int(f) for f in flags), (0.0,) * self._count
+
+    def __repr__(self) -> str:
+        return f"PolicyMonitor({self.policy!r})"

@@ -1,0 +1,258 @@
+"""Any seat of the game as a single-agent Gymnasium environment: who learns, and against whom.
+
+:func:`single_agent` turns the NS-MDP game into an ordinary ``gymnasium.Env`` seen from one
+seat — ``"agent"`` (the decision maker; this is the usual Gymnasium view), ``"nature"`` (an
+adversary, a cooperative shaper, a regret maximiser) or ``"monitor"`` (a learned detector) —
+with the two other seats played by fixed policies. Every seat is driven through the same
+:class:`~ns_pz.process.NSProcess` cycle as the game and the view, so a policy trained here acts
+identically when put back into them (:class:`~ns_pz.nature.PolicyNature`,
+:class:`~ns_pz.monitor.PolicyMonitor`).
+
+One step of a learner environment is one turn of its seat followed by the other seats' turns
+until the learner's next turn (or the end of the episode); its reward is what the game pays that
+seat over those turns. One seed at ``reset`` seeds the environment, nature, the monitor, the
+planning models and the policies playing the other seats.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from ns_pz.monitor.learned import PolicyMonitor
+from ns_pz.monitor.monitors import Monitor
+from ns_pz.nature.interface import DEFAULT_STEP
+from ns_pz.nature.learned import PolicyNature
+from ns_pz.nature.policies import Nature
+from ns_pz.observations import monitor_flags_space, monitor_observation_space
+from ns_pz.process import AGENTS, DECISION, MONITOR, NATURE, NSProcess, check_seed
+from ns_pz.regret import NatureReward, RegretReference, default_reference
+from ns_pz.seat_policies import DecisionPolicy, check_policy
+
+MonitorRewardFn = Callable[[NSProcess, tuple], float]
+"""``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
+
+
+def single_agent(
+    env: str,
+    learner: str = "agent",
+    policies: Mapping[str, Any] | None = None,
+    *,
+    nature_reward: str = "zero_sum",
+    regret_reference: RegretReference | None = None,
+    nature_action: str = "normalized",
+    nature_observes_state: bool = False,
+    default_step: float = DEFAULT_STEP,
+    monitor_reward: MonitorRewardFn | None = None,
+    deterministic: bool = True,
+    **env_kwargs: Any,
+) -> gym.Env:
+    """The game of a registered environment seen from ``learner``'s seat.
+
+    Args:
+        env: A registered id (``"ns_pz/CartPole-v0"``).
+        learner: ``"agent"``, ``"nature"`` or ``"monitor"``.
+        policies: Who plays the other seats, by seat name: a callable ``obs -> action``, an
+            SB3-style model (``predict``), an ns_pz ``Agent`` for the agent's seat, or a
+            :class:`~ns_pz.nature.Nature` / :class:`~ns_pz.monitor.Monitor` object. Left out:
+            the ``nature=`` / ``monitor=`` of ``env_kwargs`` (a schedule, the oracle). The
+            agent's seat must be given when it is not the learner.
+        nature_reward: Nature's payoff when it learns: ``"zero_sum"``, ``"cooperative"``,
+            ``"none"`` or ``"regret"`` (see :mod:`ns_pz.regret`).
+        regret_reference: The reference of ``"regret"``; default: the exact oracle on a
+            tabular family (:class:`ns_pz.agents.exact.OracleReference`).
+        nature_action: Nature's action convention (learner or policy): ``"normalized"``
+            (``Box(-1, 1)`` per allowance) or ``"delta"`` (see :mod:`ns_pz.nature.interface`).
+        nature_observes_state: Nature sees the agent's state and last action.
+        default_step: Per-step allowance of a parameter without a Lipschitz bound, as a
+            fraction of its size at θ_0 (see :mod:`ns_pz.nature.interface`).
+        monitor_reward: What the learning monitor earns per turn, ``fn(process, flags)``.
+            Required for ``learner="monitor"``.
+        deterministic: Ask SB3-style policies of the other seats deterministically.
+        **env_kwargs: The environment's arguments (``params``, ``nature``, ``monitor``,
+            ``notification``, ``constraints``, ``max_episode_steps``, family arguments).
+
+    Raises:
+        ValueError / TypeError: An unknown learner or seat, a missing or unusable policy.
+    """
+    from ns_pz.envs.registry import make_gym
+
+    if learner not in AGENTS:
+        raise ValueError(f"learner={learner!r}; allowed: {AGENTS}")
+    policies = dict(policies or {})
+    for seat in policies:
+        if seat not in AGENTS:
+            raise ValueError(f"policies has a seat {seat!r}; allowed: {AGENTS}")
+    if learner in policies:
+        raise ValueError(f"policies[{learner!r}] is given, but {learner!r} is the learner")
+    if NATURE in policies:
+        env_kwargs["nature"] = _as_nature(
+            policies[NATURE], nature_action, nature_observes_state, default_step, deterministic
+        )
+    if MONITOR in policies:
+        env_kwargs["monitor"] = _as_monitor(policies[MONITOR], deterministic)
+    if DECISION in policies:
+        check_policy(policies[DECISION], DECISION)
+    elif learner != DECISION:
+        raise ValueError(
+            f"policies[{DECISION!r}] is needed: who plays the decision agent while {learner!r} "
+            "learns (a callable, an SB3 model or an ns_pz Agent)"
+        )
+    view = make_gym(env, **env_kwargs)
+    if learner == DECISION:
+        return view
+    return SeatEnv(
+        view.process,
+        learner,
+        DecisionPolicy(policies[DECISION], deterministic=deterministic),
+        nature_reward=nature_reward,
+        regret_reference=regret_reference,
+        nature_action=nature_action,
+        nature_observes_state=nature_observes_state,
+        default_step=default_step,
+        monitor_reward=monitor_reward,
+    )
+
+
+class SeatEnv(gym.Env[Any, Any]):
+    """A Gymnasium environment in which nature or the monitor learns (see :func:`single_agent`).
+
+    Args:
+        process: The process to drive (its nature and monitor play the other seats).
+        learner: ``"nature"`` or ``"monitor"``.
+        decide: Plays the decision agent's turns.
+        nature_reward / regret_reference / nature_action / nature_observes_state /
+        default_step / monitor_reward: As in :func:`single_agent`.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": []}
+
+    def __init__(
+        self,
+        process: NSProcess,
+        learner: str,
+        decide: DecisionPolicy,
+        *,
+        nature_reward: str = "zero_sum",
+        regret_reference: RegretReference | None = None,
+        nature_action: str = "normalized",
+        nature_observes_state: bool = False,
+        default_step: float = DEFAULT_STEP,
+        monitor_reward: MonitorRewardFn | None = None,
+    ) -> None:
+        if learner not in (NATURE, MONITOR):
+            raise ValueError(f"learner={learner!r}; a SeatEnv serves {NATURE!r} or {MONITOR!r}")
+        self._process = process
+        self.learner = learner
+        self._decide = decide
+        if learner == NATURE:
+            if nature_reward == "regret" and regret_reference is None:
+                regret_reference = default_reference(process.family)
+            self._nature_reward = NatureReward(nature_reward, regret_reference)
+            self._interface = process.nature_interface(
+                nature_action, nature_observes_state, default_step
+            )
+            self.observation_space = self._interface.observation_space
+            self.action_space: spaces.Space[Any] = self._interface.action_space
+        else:
+            if monitor_reward is None or not callable(monitor_reward):
+                raise ValueError(
+                    f"monitor_reward={monitor_reward!r}: a learning monitor needs a reward "
+                    "function fn(process, flags) -> float (e.g. a detection score)"
+                )
+            self._monitor_reward = monitor_reward
+            self.observation_space = monitor_observation_space(process.family)
+            self.action_space = monitor_flags_space(process.family.params_cls)
+
+    @property
+    def process(self) -> NSProcess:
+        """The process this environment drives."""
+        return self._process
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Start an episode and play the other seats up to the learner's first turn.
+
+        Args:
+            seed: Seeds the environment, nature, the monitor and the other seats' policies.
+            options: ``{"params": θ_0}`` starts this episode from another θ_0.
+        """
+        check_seed(seed)
+        super().reset(seed=seed)
+        process = self._process
+        if seed is not None or process.env_rng is None:
+            process.seed(self.np_random_seed)
+            self._np_random = process.env_rng
+        process.reset(options)
+        self._decide.reset(process.seat_rng())
+        process.play_until(self.learner, self._decide)
+        return self._observe(), {}
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        """The learner's turn, then the other seats' turns until its next one.
+
+        Raises:
+            ResetNeeded: No episode is running.
+            ValueError: ``action`` is outside the action space.
+        """
+        process = self._process
+        if process.done:
+            process.check_running("step()")
+        if self.learner == NATURE:
+            process.nature_turn(self._interface.proposal(action, process.theta))
+            agent_total, _ = process.play_until(NATURE, self._decide)
+            reward = self._nature_reward.per_step(agent_total)
+            if process.done:
+                reward += self._nature_reward.at_end(process)
+        else:
+            flags = _flags_of(action, len(process.no_change))
+            process.monitor_turn(flags, process.no_change)
+            reward = float(self._monitor_reward(process, flags))
+            process.play_until(MONITOR, self._decide)
+        terminated, truncated = process.ended if process.done else (False, False)
+        return self._observe(), float(reward), terminated, truncated, {}
+
+    def _observe(self) -> Any:
+        process = self._process
+        if self.learner == NATURE:
+            return self._interface.observe(process)
+        return process.build.monitor(process)
+
+    def ground_truth(self) -> Any:
+        """The true θ trajectory of this episode (for evaluation)."""
+        return self._process.ground_truth()
+
+    def __repr__(self) -> str:
+        return f"SeatEnv(learner={self.learner!r}, {self._process.family!r})"
+
+
+def _as_nature(
+    policy: Any, action: str, observes_state: bool, default_step: float, deterministic: bool
+) -> Nature:
+    if isinstance(policy, Nature):
+        return policy
+    return PolicyNature(
+        policy,
+        action=action,
+        observes_state=observes_state,
+        default_step=default_step,
+        deterministic=deterministic,
+    )
+
+
+def _as_monitor(policy: Any, deterministic: bool) -> Monitor:
+    if isinstance(policy, Monitor):
+        return policy
+    return PolicyMonitor(policy, deterministic=deterministic)
+
+
+def _flags_of(action: Any, count: int) -> tuple[int, ...]:
+    flags = np.asarray(action)
+    if flags.shape != (count,) or flags.dtype.kind not in "iub" or not np.isin(flags, (0, 1)).all():
+        raise ValueError(f"monitor action={action!r} must be {count} flags of 0/1")
+    return tuple(int(f) for f in flags)

@@ -1,0 +1,297 @@
+"""single_agent: every seat as a Gymnasium env; PolicyNature/PolicyMonitor; regret; budgets seen."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from ns_pz.agents import SnapshotValueIteration
+from ns_pz.agents.exact import OracleReference
+
+import ns_pz
+from ns_pz import DECISION, MONITOR, NATURE
+from ns_pz.monitor import PolicyMonitor
+from ns_pz.nature import NatureConstraints, PolicyNature
+from ns_pz.regret import ReplayReference
+
+LAKE = {"params": {"slip": (0.9, 0.05, 0.05)}, "notification": "detailed"}
+BOUNDED = NatureConstraints(lipschitz=0.1, budget=0.5)
+
+
+def push_left(obs):
+    """A CartPole controller that always pushes left (any deterministic policy will do)."""
+    return 0
+
+
+def balance(obs):
+    """A CartPole controller that balances the stationary pole: push towards the pole's lean."""
+    state = obs["state"]
+    return int(state[2] + 0.5 * state[3] > 0)
+
+
+def lean_nature(obs):
+    """A nature that always asks for the most of every parameter (normalised action +1)."""
+    return np.ones(6, np.float32)
+
+
+def test_every_seat_passes_gymnasiums_checker():
+    """Nature (also state-aware) and monitor seats are valid Gymnasium envs, seeded by reset."""
+    vi = SnapshotValueIteration(gamma=0.99)
+    check_env(ns_pz.single_agent("ns_pz/FrozenLake-v0", "nature", {DECISION: vi}, **LAKE))
+    check_env(
+        ns_pz.single_agent(
+            "ns_pz/CartPole-v0",
+            "nature",
+            {DECISION: balance},
+            nature_observes_state=True,
+            constraints=NatureConstraints(budget={"masspole": 0.5}),
+        )
+    )
+    check_env(
+        ns_pz.single_agent(
+            "ns_pz/CartPole-v0",
+            "monitor",
+            {DECISION: balance},
+            monitor_reward=lambda process, flags: -float(sum(flags)),
+            notification="basic",
+        )
+    )
+    assert isinstance(ns_pz.single_agent("ns_pz/CartPole-v0"), ns_pz.NSGymEnv)
+
+
+def test_sb3_checker_accepts_the_nature_and_monitor_seats():
+    """Stable-Baselines3's own checker (when installed) accepts both learner seats."""
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    nature = ns_pz.single_agent("ns_pz/CartPole-v0", "nature", {DECISION: balance})
+    sb3_checker.check_env(nature, warn=False)
+    monitor = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        "monitor",
+        {DECISION: lambda obs: 0},
+        monitor_reward=lambda process, flags: 0.0,
+    )
+    sb3_checker.check_env(monitor, warn=False)
+
+
+def test_nature_observation_is_finite_and_shows_budgets_left():
+    """No inf without a budget; the budget fractions fall as nature spends."""
+    env = ns_pz.single_agent("ns_pz/FrozenLake-v0", "nature", {DECISION: lambda o: 1}, **LAKE)
+    obs, _ = env.reset(seed=0)
+    assert np.isfinite(obs).all() and obs[-1] == 0.0  # no budget: flag 0, fractions 1
+    env = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        "nature",
+        {DECISION: lambda o: 1},
+        constraints=BOUNDED,
+        **LAKE,
+    )
+    obs, _ = env.reset(seed=0)
+    assert obs[-1] == 1.0 and obs[4] == 1.0  # total budget whole
+    obs, *_ = env.step(np.array([-1.0, 1.0, 0.0], np.float32))
+    # slip moves by the Lipschitz bound 0.1 (total variation): 0.1 of the 0.5 budget is spent
+    assert obs[4] == pytest.approx(0.8)
+    assert env.ground_truth().theta.slip == pytest.approx((0.8, 0.15, 0.05))
+    assert obs[0] == pytest.approx(1 / 100)  # t over the time limit
+
+
+def test_normalized_actions_move_by_the_allowance():
+    """+1 moves a scalar by its Lipschitz bound, or by 1 % of its θ_0 value without one."""
+    env = ns_pz.single_agent(
+        "ns_pz/CartPole-v0",
+        "nature",
+        {DECISION: push_left},
+        constraints=NatureConstraints(lipschitz={"masspole": 0.05}),
+    )
+    env.reset(seed=0)
+    action = np.zeros(6, np.float32)
+    action[[0, 2]] = 1.0  # gravity and masspole
+    env.step(action)
+    theta = env.ground_truth().theta
+    assert theta.masspole == pytest.approx(0.15) and theta.gravity == pytest.approx(9.8 * 1.01)
+    with pytest.raises(ValueError, match="outside the action space"):
+        env.step(np.full(6, 1.5, np.float32))
+    env.step(np.zeros(6, np.float32))
+    assert env.ground_truth().change_times == (0,)
+
+
+def test_policy_nature_replays_what_the_learner_seat_did():
+    """A policy trained in nature's seat acts identically when put back into the view."""
+    rng_actions = [np.random.default_rng(7).uniform(-1, 1, 6).astype(np.float32)]
+
+    def wobbly(obs):
+        """A deterministic function of the observation."""
+        return np.tanh(rng_actions[0] * (1.0 + obs[0] * 5.0)).astype(np.float32)
+
+    seat = ns_pz.single_agent("ns_pz/CartPole-v0", "nature", {DECISION: balance})
+    obs, _ = seat.reset(seed=3)
+    nature_total, done = 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, _ = seat.step(wobbly(obs))
+        nature_total += reward
+        done = terminated or truncated
+    view = ns_pz.make_gym("ns_pz/CartPole-v0", nature=PolicyNature(wobbly))
+    obs, _ = view.reset(seed=3)
+    agent_total, done = 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, _ = view.step(balance(obs))
+        agent_total += reward
+        done = terminated or truncated
+    assert view.ground_truth() == seat.ground_truth()
+    assert len(seat.ground_truth().change_times) > 10
+    assert nature_total == -agent_total
+
+
+def test_the_game_and_the_seat_agree_for_a_policy_nature():
+    """The game with PolicyNature (normalised actions) gives the same θ path as the seat env."""
+    game = ns_pz.make(
+        "ns_pz/CartPole-v0", nature=PolicyNature(lean_nature), nature_action="normalized"
+    )
+    game.reset(seed=1)
+    seat = ns_pz.single_agent("ns_pz/CartPole-v0", "nature", {DECISION: push_left})
+    obs, _ = seat.reset(seed=1)
+    for _ in range(5):
+        game_obs = game.observe(NATURE)
+        assert np.array_equal(game_obs, obs)
+        game.step(game.policy_action(NATURE))
+        game.step(game.policy_action(MONITOR))
+        game.step(0)
+        obs, *_ = seat.step(lean_nature(obs))
+    assert game.ground_truth() == seat.ground_truth()
+
+
+def test_monitor_seat_pays_the_given_reward_and_its_flags_reach_the_agent():
+    """The monitor learner's flags become the agent's notification; PolicyMonitor agrees."""
+    seen = []
+
+    def agent(obs):
+        seen.append(obs["env_change"].tolist())
+        return 0
+
+    def alarm_on_odd(obs):
+        return np.array([int(obs["relative_time"][0]) % 2], np.int64)
+
+    env = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        "monitor",
+        {DECISION: agent},
+        monitor_reward=lambda process, flags: -float(flags[0]),
+        notification="basic",
+    )
+    obs, _ = env.reset(seed=0)
+    rewards = []
+    for _ in range(4):
+        obs, reward, terminated, truncated, _ = env.step(alarm_on_odd(obs))
+        rewards.append(reward)
+        if terminated or truncated:
+            break
+    assert seen[: len(rewards)] == [[t % 2] for t in range(len(rewards))]
+    assert rewards == [-float(t % 2) for t in range(len(rewards))]
+    view = ns_pz.make_gym(
+        "ns_pz/FrozenLake-v0", monitor=PolicyMonitor(alarm_on_odd), notification="basic"
+    )
+    obs, _ = view.reset(seed=0)
+    assert obs["env_change"].tolist() == [0]
+    obs, *_ = view.step(0)
+    assert obs["env_change"].tolist() == [1]
+
+
+def test_seeds_reproduce_every_seat():
+    """Same seed, same actions: same observations and ground truth (the agent seat too)."""
+
+    def run(seed):
+        env = ns_pz.single_agent(
+            "ns_pz/FrozenLake-v0",
+            "nature",
+            {DECISION: lambda o: int(o["state"]) % 4},
+            constraints=BOUNDED,
+            **LAKE,
+        )
+        obs, _ = env.reset(seed=seed)
+        trace = [obs]
+        for action in np.random.default_rng(0).uniform(-1, 1, (30, 3)):
+            obs, reward, terminated, truncated, _ = env.step(action.astype(np.float32))
+            trace.append((obs, reward))
+            if terminated or truncated:
+                break
+        return trace, env.ground_truth()
+
+    first, again, other = run(4), run(4), run(5)
+    assert str(first) == str(again) and str(first) != str(other)
+
+
+def test_regret_pays_the_oracle_value_minus_the_agent_return():
+    """Nature's episode total under "regret" is the exact oracle value minus the agent's return."""
+    vi = SnapshotValueIteration(gamma=1.0, horizon=20)
+    env = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        "nature",
+        {DECISION: vi},
+        nature_reward="regret",
+        constraints=BOUNDED,
+        max_episode_steps=20,
+        **LAKE,
+    )
+    for seed in range(3):
+        obs, _ = env.reset(seed=seed)
+        total, agent_return, done = 0.0, 0.0, False
+        while not done:
+            obs, reward, terminated, truncated, _ = env.step(np.array([-1, 1, 0], np.float32))
+            total += reward
+            done = terminated or truncated
+            agent_return += env.process.last_reward
+        oracle = OracleReference()(env.process)
+        assert 0.0 < oracle <= 1.0
+        assert total == pytest.approx(oracle - agent_return)
+
+
+def test_replay_reference_of_the_agent_itself_has_no_regret_on_a_deterministic_env():
+    """Replaying the agent's own policy on deterministic CartPole gives exactly its return."""
+    env = ns_pz.single_agent(
+        "ns_pz/CartPole-v0",
+        "nature",
+        {DECISION: balance},
+        nature_reward="regret",
+        regret_reference=ReplayReference(balance),
+        max_episode_steps=100,
+    )
+    obs, _ = env.reset(seed=0)
+    total, done = 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, _ = env.step(lean_nature(obs))
+        total += reward
+        done = terminated or truncated
+    assert len(env.ground_truth().change_times) > 0 and total == 0.0
+    with pytest.raises(ValueError, match="not tabular"):
+        ns_pz.single_agent(
+            "ns_pz/CartPole-v0", "nature", {DECISION: balance}, nature_reward="regret"
+        )
+
+
+@pytest.mark.parametrize(
+    ("learner", "policies", "kwargs", "match"),
+    [
+        ("adversary", {}, {}, "learner='adversary'"),
+        ("nature", {}, {}, r"policies\['agent'\] is needed"),
+        ("nature", {"agent": balance, "nature": lean_nature}, {}, "'nature' is the learner"),
+        ("agent", {"natur": lean_nature}, {}, "seat 'natur'"),
+        ("monitor", {"agent": balance}, {}, "monitor_reward=None"),
+        ("nature", {"agent": 3}, {}, "cannot drive the agent seat"),
+    ],
+)
+def test_single_agent_refuses_bad_seats(learner, policies, kwargs, match):
+    """Unknown learners and seats, a missing agent, an unusable policy: clear errors."""
+    with pytest.raises((ValueError, TypeError), match=match):
+        ns_pz.single_agent("ns_pz/CartPole-v0", learner, policies, **kwargs)
+
+
+def test_learner_agent_gets_policy_nature_and_monitor():
+    """learner="agent" is the usual view, with the other seats played by the given policies."""
+    env = ns_pz.single_agent(
+        "ns_pz/CartPole-v0", "agent", {NATURE: lean_nature}, notification="detailed"
+    )
+    obs, _ = env.reset(seed=0)
+    obs, *_ = env.step(0)
+    obs, *_ = env.step(0)
+    assert obs["env_change"].all() and math.isclose(obs["delta_change"][2], 0.001, rel_tol=1e-3)
