@@ -27,12 +27,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
+from ns_pz.states import check_real_state
 
 State = tuple[float, float, float, float]
 """``(theta1, theta2, dtheta1, dtheta2)``: angles in rad, angular velocities in rad/s."""
@@ -133,6 +135,16 @@ class AcrobotFamily(EnvFamily):
         d2 = min(max(d2 + sixth * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3]), -MAX_VEL_2), MAX_VEL_2)
         terminal = -math.cos(t1) - math.cos(t2 + t1) > 1.0
         return (t1, t2, d1, d2), (0.0 if terminal else -1.0), terminal
+
+    def check_state(self, state: Any) -> State:
+        """``state`` as four finite floats; angles any, velocities within ±4π and ±9π.
+
+        Raises:
+            ValueError: Another length, a non-number, NaN, infinity or a velocity out of bounds.
+        """
+        bounds = (None, None, (-MAX_VEL_1, MAX_VEL_1), (-MAX_VEL_2, MAX_VEL_2))
+        fields = ("theta1", "theta2", "dtheta1", "dtheta2")
+        return check_real_state(self, state, fields, bounds)  # type: ignore[return-value]
 
     def observe(self, state: State) -> np.ndarray:
         """``[cos θ1, sin θ1, cos θ2, sin θ2, dθ1, dθ2]`` as float32."""

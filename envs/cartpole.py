@@ -12,14 +12,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
+from ns_pz.states import check_real_state
 
 State = tuple[float, float, float, float]
+STATE_FIELDS = ("x", "x_dot", "angle", "angle_dot")
 
 THETA_THRESHOLD_RADIANS = 12 * 2 * math.pi / 360
 X_THRESHOLD = 2.4
@@ -120,6 +123,14 @@ class CartPoleFamily(EnvFamily):
     def observe(self, state: State) -> np.ndarray:
         """``[x, x_dot, angle, angle_dot]`` as float32."""
         return np.array(state, dtype=np.float32)
+
+    def check_state(self, state: Any) -> State:
+        """``state`` as a tuple of four finite floats ``(x, x_dot, angle, angle_dot)``.
+
+        Raises:
+            ValueError: Another length, a non-number, NaN or infinity.
+        """
+        return check_real_state(self, state, STATE_FIELDS)  # type: ignore[return-value]
 
     def __repr__(self) -> str:
         return f"CartPoleFamily(kinematics_integrator={self.kinematics_integrator!r})"

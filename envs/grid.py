@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from abc import abstractmethod
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -20,6 +21,7 @@ from gymnasium import spaces
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params
 from ns_pz.planning import TabularModel, TabularOutcomes
+from ns_pz.states import check_index_state
 
 Outcome = tuple[int, float, bool]
 
@@ -114,6 +116,14 @@ class SlipGridFamily(EnvFamily):
     def observe(self, state: int) -> int:
         """The state index ``row * ncol + col``."""
         return state
+
+    def check_state(self, state: Any) -> int:
+        """``state`` as an ``int`` cell index in ``[0, nrow * ncol)``.
+
+        Raises:
+            ValueError: It is not an integer (``bool`` included) or is out of range.
+        """
+        return check_index_state(self, state, self.nrow * self.ncol)
 
     def outcomes(self, theta: Params) -> TabularOutcomes:
         """The explicit table under ``theta``; the structure arrays are shared, not copied."""

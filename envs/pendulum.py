@@ -28,6 +28,7 @@ from ns_pz.envs.continuous import check_box_action, f32
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
+from ns_pz.states import check_real_state
 
 State = tuple[float, float]
 """``(angle, angular_velocity)``: rad (0 is upright, not wrapped), rad/s."""
@@ -97,6 +98,15 @@ class PendulumFamily(EnvFamily):
         new_velocity = velocity + (3 * gravity / (2 * length) * math.sin(angle) + push) * dt
         new_velocity = min(max(new_velocity, -MAX_SPEED), MAX_SPEED)
         return (angle + new_velocity * dt, new_velocity), -cost, False
+
+    def check_state(self, state: Any) -> State:
+        """``state`` as ``(angle, angular_velocity)``: finite, the velocity within ±8 rad/s.
+
+        Raises:
+            ValueError: Another length, a non-number, NaN, infinity or a velocity out of bounds.
+        """
+        bounds = (None, (-MAX_SPEED, MAX_SPEED))
+        return check_real_state(self, state, ("angle", "angular_velocity"), bounds)  # type: ignore[return-value]
 
     def observe(self, state: State) -> np.ndarray:
         """``[cos θ, sin θ, θ̇]`` as float32."""

@@ -64,6 +64,17 @@ class EnvFamily(ABC):
             return np.asarray(action, dtype=space.dtype)
         raise ValueError(f"action={action!r} is outside the action space {space}")
 
+    def check_state(self, state: Any) -> State:
+        """Return ``state`` in canonical form, or raise ``ValueError`` if it is not a state.
+
+        What :meth:`PlanningModel.set_state <ns_pz.planning.PlanningModel.set_state>` accepts.
+        Families override it with an exact check; this fallback accepts any value whose
+        observation lies in :attr:`observation_space`.
+        """
+        from ns_pz.states import check_observable_state
+
+        return check_observable_state(self, state)
+
     def planning_model(self, theta: Params, state: State, rng: np.random.Generator) -> Any:
         """A stationary model under ``theta`` positioned at ``state``."""
         from ns_pz.planning import PlanningModel
