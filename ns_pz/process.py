@@ -66,8 +66,7 @@ class NSProcess:
         monitor: Who decides the notification (default: the oracle).
         notification: ``"none"``, ``"basic"`` or ``"detailed"``.
         constraints: Lipschitz bound and budget on nature.
-        max_episode_steps: Transitions after which the episode is truncated; ``None``: never
-            (the Gymnasium registration leaves truncation to Gymnasium's ``TimeLimit``).
+        max_episode_steps: Transitions after which the episode is truncated; ``None``: never.
 
     Raises:
         TypeError / ValueError: Any argument of the wrong type or value, before anything runs.

@@ -120,7 +120,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
 
     @property
     def max_episode_steps(self) -> int | None:
-        """Transitions after which an episode is truncated (``None``: Gymnasium's TimeLimit)."""
+        """Transitions after which an episode is truncated (``None``: never)."""
         return self._process.max_episode_steps
 
     @property
