@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -35,6 +35,9 @@ from gymnasium import spaces
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
 from ns_pz.states import check_real_state
+
+if TYPE_CHECKING:
+    from ns_pz.envs.rendering import GymnasiumPainter
 
 State = tuple[float, float, float, float]
 """``(theta1, theta2, dtheta1, dtheta2)``: angles in rad, angular velocities in rad/s."""
@@ -89,6 +92,8 @@ class AcrobotFamily(EnvFamily):
     """
 
     params_cls = AcrobotParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 15
 
     def __init__(self, torque_noise_max: float = 0.0) -> None:
         if isinstance(torque_noise_max, bool) or not isinstance(
@@ -145,6 +150,12 @@ class AcrobotFamily(EnvFamily):
         bounds = (None, None, (-MAX_VEL_1, MAX_VEL_1), (-MAX_VEL_2, MAX_VEL_2))
         fields = ("theta1", "theta2", "dtheta1", "dtheta2")
         return check_real_state(self, state, fields, bounds)  # type: ignore[return-value]
+
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's AcrobotEnv renderer (needs pygame; see :mod:`ns_pz.envs.rendering`)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_acrobot
+
+        return GymnasiumPainter("AcrobotEnv", pose_acrobot)
 
     def observe(self, state: State) -> np.ndarray:
         """``[cos θ1, sin θ1, cos θ2, sin θ2, dθ1, dθ2]`` as float32."""

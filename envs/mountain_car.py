@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -31,6 +31,9 @@ from ns_pz.envs.continuous import check_box_action, f32
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
 from ns_pz.states import check_real_state
+
+if TYPE_CHECKING:
+    from ns_pz.envs.rendering import GymnasiumPainter
 
 MIN_POSITION = -1.2
 MAX_POSITION = 0.6
@@ -108,6 +111,8 @@ class MountainCarFamily(EnvFamily):
     """
 
     params_cls = MountainCarParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 30
 
     def __init__(self, goal_velocity: float = 0.0) -> None:
         self.goal_velocity = _check_goal_velocity(goal_velocity)
@@ -141,6 +146,12 @@ class MountainCarFamily(EnvFamily):
         terminal = position >= GOAL_POSITION and velocity >= self.goal_velocity
         return (position, velocity), -1.0, terminal
 
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's MountainCarEnv renderer (needs pygame; see :mod:`ns_pz.envs.rendering`)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_mountain_car
+
+        return GymnasiumPainter("MountainCarEnv", pose_mountain_car)
+
     def observe(self, state: State) -> np.ndarray:
         """``[position, velocity]`` as float32."""
         return np.array(state, dtype=np.float32)
@@ -173,6 +184,8 @@ class MountainCarContinuousFamily(EnvFamily):
     """
 
     params_cls = MountainCarContinuousParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 30
 
     def __init__(self, goal_velocity: float = 0.0) -> None:
         self.goal_velocity = _check_goal_velocity(goal_velocity)
@@ -227,6 +240,12 @@ class MountainCarContinuousFamily(EnvFamily):
             next_state, terminal = _float64_update(position, velocity, change, self.goal_velocity)
         reward = (100.0 if terminal else 0.0) - math.pow(push, 2) * 0.1
         return next_state, reward, terminal
+
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's Continuous_MountainCarEnv renderer (needs pygame)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_mountain_car
+
+        return GymnasiumPainter("Continuous_MountainCarEnv", pose_mountain_car)
 
     def observe(self, state: ContinuousState) -> np.ndarray:
         """``[position, velocity]`` as float32."""

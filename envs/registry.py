@@ -11,9 +11,9 @@ limit. Three ways to build one:
 * :func:`make`: the PettingZoo AEC game.
 
 Keyword arguments are split: ``params``, ``nature``, ``monitor``, ``notification``,
-``constraints``, ``max_episode_steps`` (and ``ground_truth_info`` / ``nature_reward`` for the
-view / game) configure the NS-MDP; everything else goes to the family's constructor
-(``map_name="8x8"``).
+``constraints``, ``max_episode_steps``, ``render_mode`` (and ``ground_truth_info`` /
+``nature_reward`` for the view / game) configure the NS-MDP; everything else goes to the
+family's constructor (``map_name="8x8"``).
 """
 
 from __future__ import annotations
@@ -32,7 +32,15 @@ from ns_pz.family import EnvFamily
 from ns_pz.game import NSGame
 from ns_pz.views import NSGymEnv
 
-_NS_KWARGS = {"params", "nature", "monitor", "notification", "constraints", "max_episode_steps"}
+_NS_KWARGS = {
+    "params",
+    "nature",
+    "monitor",
+    "notification",
+    "constraints",
+    "max_episode_steps",
+    "render_mode",
+}
 _VIEW_KWARGS = _NS_KWARGS | {"ground_truth_info"}
 _GAME_KWARGS = _NS_KWARGS | {"nature_reward"}
 

@@ -39,6 +39,7 @@ from ns_pz.observations import (
 )
 from ns_pz.params import SIMPLEX, Params
 from ns_pz.process import GroundTruth, NSProcess, mask_notification
+from ns_pz.rendering import Renderer, render_metadata
 
 NATURE = "nature"
 MONITOR = "monitor"
@@ -59,6 +60,12 @@ class NSGame(AECEnv):
         constraints: Lipschitz bound and budget enforced on every nature action.
         max_episode_steps: Time steps after which all agents are truncated.
         nature_reward: ``"zero_sum"`` (-r), ``"cooperative"`` (+r) or ``"none"`` (0).
+        render_mode: ``None``, or one of the family's modes (``"human"``, ``"rgb_array"``, and
+            ``"ansi"`` for grid worlds): :meth:`render` draws the environment's state under the
+            θ in force; ``"human"`` redraws after every reset and transition.
+
+    Raises:
+        ValueError: ``render_mode`` is not one of the family's modes.
     """
 
     metadata: dict[str, Any] = {
@@ -78,9 +85,12 @@ class NSGame(AECEnv):
         constraints: NatureConstraints | None = None,
         max_episode_steps: int | None = 500,
         nature_reward: str = "zero_sum",
+        render_mode: str | None = None,
     ) -> None:
         super().__init__()
-        self.render_mode = None
+        self._renderer = Renderer(family, render_mode)
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, **render_metadata(family)}
         self._process = NSProcess(
             family,
             params=params,
@@ -150,6 +160,8 @@ class NSGame(AECEnv):
         self._notification = (process.no_change, process.no_change)
         self._rewarded = False
         self._scripted = None
+        if self.render_mode == "human":
+            self.render()
 
     def observe(self, agent: str) -> Any:
         """What ``agent`` sees now (see :mod:`ns_pz.observations`)."""
@@ -221,6 +233,8 @@ class NSGame(AECEnv):
             self.truncations = dict.fromkeys(AGENTS, bool(truncated))
             self._notification = (process.no_change, process.no_change)
         self.agent_selection = NATURE
+        if self.render_mode == "human":
+            self.render()
 
     def _proposal(self, action: Any) -> dict[str, Any] | None:
         """Turn nature's Δθ into a proposal of new values.
@@ -311,13 +325,20 @@ class NSGame(AECEnv):
         """The environment family."""
         return self._process.family
 
-    def render(self) -> None:
-        """No rendering yet: the game has no visual state of its own."""
-        return None
+    def render(self) -> None | np.ndarray | str:
+        """The environment's state under the θ in force, in :attr:`render_mode`.
+
+        A ``uint8`` frame ``[height, width, 3]`` (``"rgb_array"``), text (``"ansi"``), or
+        ``None`` (``"human"``, which draws into a window, or no render mode).
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        return self._renderer.render(self._process)
 
     def close(self) -> None:
-        """Nothing to release."""
-        return None
+        """Close the render window, if one is open."""
+        self._renderer.close()
 
 
 def delta_of(theta: Params, proposal: Mapping[str, Any], space: spaces.Box) -> np.ndarray:

@@ -26,6 +26,7 @@ from ns_pz.nature.policies import Nature
 from ns_pz.observations import ObservationBuilder, agent_observation_space
 from ns_pz.params import Params
 from ns_pz.process import GroundTruth, NSProcess
+from ns_pz.rendering import Renderer, render_metadata
 
 
 class NSGymEnv(gym.Env[dict[str, Any], Any]):
@@ -41,6 +42,11 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         constraints: Lipschitz bound and budget on nature.
         max_episode_steps: Transitions after which an episode is truncated.
         ground_truth_info: Put the θ in force into ``info["theta"]`` (for evaluation only).
+        render_mode: ``None``, or one of the family's modes (``"human"``, ``"rgb_array"``, and
+            ``"ansi"`` for grid worlds); see :mod:`ns_pz.rendering`.
+
+    Raises:
+        ValueError: ``render_mode`` is not one of the family's modes.
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -56,7 +62,11 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         constraints: NatureConstraints | None = None,
         max_episode_steps: int | None = 500,
         ground_truth_info: bool = False,
+        render_mode: str | None = None,
     ) -> None:
+        self._renderer = Renderer(family, render_mode)
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, **render_metadata(family)}
         self._process = NSProcess(
             family,
             params=params,
@@ -84,6 +94,8 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         process.reset()
         no_change = process.no_change
         obs = self._build.agent(process.state, 0, no_change, no_change, True)
+        if self.render_mode == "human":
+            self.render()
         return obs, self._info()
 
     def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
@@ -105,7 +117,21 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             flags, sizes = process.notification(observation)
         quiet = sizes is process.no_change and flags is process.no_change
         obs = self._build.agent(process.state, process.t, flags, sizes, quiet)
+        if self.render_mode == "human":
+            self.render()
         return obs, float(reward), bool(terminated), bool(truncated), self._info()
+
+    def render(self) -> Any:
+        """The current state in :attr:`render_mode`: a frame, text, or ``None`` (human, none).
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        return self._renderer.render(self._process)
+
+    def close(self) -> None:
+        """Close the render window, if one is open."""
+        self._renderer.close()
 
     # -- ns_pz extras -----------------------------------------------------------------------
     @property
@@ -183,6 +209,8 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         else:
             twin._process = process.stationary_copy(theta)
         twin._np_random = twin._process.env_rng
+        twin._renderer = self._renderer.branch()
+        twin.render_mode = twin._renderer.mode
         return twin
 
     @property
