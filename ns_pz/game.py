@@ -88,9 +88,6 @@ class NSGame(AECEnv):
         render_mode: str | None = None,
     ) -> None:
         super().__init__()
-        self._renderer = Renderer(family, render_mode)
-        self.render_mode = render_mode
-        self.metadata = {**type(self).metadata, **render_metadata(family)}
         self._process = NSProcess(
             family,
             params=params,
@@ -104,6 +101,9 @@ class NSGame(AECEnv):
             raise ValueError(f"nature_reward={nature_reward!r}; allowed: {NATURE_REWARDS}")
         self._nature_sign = {"zero_sum": -1.0, "cooperative": 1.0, "none": 0.0}[nature_reward]
         self._build = ObservationBuilder(family)
+        self._renderer = Renderer(family, render_mode)
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, **render_metadata(family)}
         params_cls = family.params_cls
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []

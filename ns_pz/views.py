@@ -64,9 +64,6 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         ground_truth_info: bool = False,
         render_mode: str | None = None,
     ) -> None:
-        self._renderer = Renderer(family, render_mode)
-        self.render_mode = render_mode
-        self.metadata = {**type(self).metadata, **render_metadata(family)}
         self._process = NSProcess(
             family,
             params=params,
@@ -78,6 +75,9 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         )
         self._build = ObservationBuilder(family)
         self._ground_truth_info = bool(ground_truth_info)
+        self._renderer = Renderer(family, render_mode)
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, **render_metadata(family)}
         self.observation_space = agent_observation_space(family)
         self.action_space = family.action_space
 
