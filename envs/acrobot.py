@@ -27,12 +27,17 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
+from ns_pz.states import check_real_state
+
+if TYPE_CHECKING:
+    from ns_pz.envs.rendering import GymnasiumPainter
 
 State = tuple[float, float, float, float]
 """``(theta1, theta2, dtheta1, dtheta2)``: angles in rad, angular velocities in rad/s."""
@@ -87,6 +92,8 @@ class AcrobotFamily(EnvFamily):
     """
 
     params_cls = AcrobotParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 15
 
     def __init__(self, torque_noise_max: float = 0.0) -> None:
         if isinstance(torque_noise_max, bool) or not isinstance(
@@ -133,6 +140,22 @@ class AcrobotFamily(EnvFamily):
         d2 = min(max(d2 + sixth * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3]), -MAX_VEL_2), MAX_VEL_2)
         terminal = -math.cos(t1) - math.cos(t2 + t1) > 1.0
         return (t1, t2, d1, d2), (0.0 if terminal else -1.0), terminal
+
+    def check_state(self, state: Any) -> State:
+        """``state`` as four finite floats; angles any, velocities within ±4π and ±9π.
+
+        Raises:
+            ValueError: Another length, a non-number, NaN, infinity or a velocity out of bounds.
+        """
+        bounds = (None, None, (-MAX_VEL_1, MAX_VEL_1), (-MAX_VEL_2, MAX_VEL_2))
+        fields = ("theta1", "theta2", "dtheta1", "dtheta2")
+        return check_real_state(self, state, fields, bounds)  # type: ignore[return-value]
+
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's AcrobotEnv renderer (needs pygame; see :mod:`ns_pz.envs.rendering`)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_acrobot
+
+        return GymnasiumPainter("AcrobotEnv", pose_acrobot)
 
     def observe(self, state: State) -> np.ndarray:
         """``[cos θ1, sin θ1, cos θ2, sin θ2, dθ1, dθ2]`` as float32."""

@@ -12,14 +12,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
+from ns_pz.states import check_real_state
+
+if TYPE_CHECKING:
+    from ns_pz.envs.rendering import GymnasiumPainter
 
 State = tuple[float, float, float, float]
+STATE_FIELDS = ("x", "x_dot", "angle", "angle_dot")
 
 THETA_THRESHOLD_RADIANS = 12 * 2 * math.pi / 360
 X_THRESHOLD = 2.4
@@ -59,6 +65,8 @@ class CartPoleFamily(EnvFamily):
     """
 
     params_cls = CartPoleParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 50
 
     def __init__(self, kinematics_integrator: str = "euler") -> None:
         if kinematics_integrator not in ("euler", "semi-implicit euler"):
@@ -117,9 +125,23 @@ class CartPoleFamily(EnvFamily):
         )
         return (x, x_dot, angle, angle_dot), 1.0, terminal
 
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's CartPoleEnv renderer (needs pygame; see :mod:`ns_pz.envs.rendering`)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_cartpole
+
+        return GymnasiumPainter("CartPoleEnv", pose_cartpole)
+
     def observe(self, state: State) -> np.ndarray:
         """``[x, x_dot, angle, angle_dot]`` as float32."""
         return np.array(state, dtype=np.float32)
+
+    def check_state(self, state: Any) -> State:
+        """``state`` as a tuple of four finite floats ``(x, x_dot, angle, angle_dot)``.
+
+        Raises:
+            ValueError: Another length, a non-number, NaN or infinity.
+        """
+        return check_real_state(self, state, STATE_FIELDS)  # type: ignore[return-value]
 
     def __repr__(self) -> str:
         return f"CartPoleFamily(kinematics_integrator={self.kinematics_integrator!r})"

@@ -12,6 +12,7 @@ the goal pays ``goal_reward`` (Gymnasium: -1; the NS-Gym paper: +100) and ends t
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from ns_pz.envs.grid import Outcome, SlipGridFamily
 
@@ -78,6 +79,21 @@ class CliffWalkingFamily(SlipGridFamily):
     def slip_param_of(self, state: int) -> str:
         """One global slip vector."""
         return "slip"
+
+    def check_state(self, state: Any) -> int:
+        """A cell index in ``[0, 48)`` that is not a cliff cell (the agent never stands there).
+
+        Raises:
+            ValueError: It is not an integer, is out of range, or is a cliff cell.
+        """
+        index = super().check_state(state)
+        if self.cell(index) == "C":
+            cliff = [s for s in range(self.nrow * self.ncol) if self.cell(s) == "C"]
+            raise ValueError(
+                f"state={state!r} is a cliff cell of {self!r}, where the agent never stands; "
+                f"allowed: an int in [0, {self.nrow * self.ncol}) other than {cliff}"
+            )
+        return index
 
     def __repr__(self) -> str:
         return (

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from abc import abstractmethod
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -20,6 +21,10 @@ from gymnasium import spaces
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params
 from ns_pz.planning import TabularModel, TabularOutcomes
+from ns_pz.states import check_index_state
+
+if TYPE_CHECKING:
+    from ns_pz.envs.rendering import GridPainter
 
 Outcome = tuple[int, float, bool]
 
@@ -111,9 +116,26 @@ class SlipGridFamily(EnvFamily):
                 return self._table[state][action][k]
         return self._table[state][action][_pick(probs, u)]
 
+    render_modes = ("human", "rgb_array", "ansi")
+    render_fps = 4
+
+    def painter(self) -> GridPainter:
+        """The map and the agent, drawn with NumPy (see :mod:`ns_pz.envs.rendering`)."""
+        from ns_pz.envs.rendering import GridPainter
+
+        return GridPainter(self)
+
     def observe(self, state: int) -> int:
         """The state index ``row * ncol + col``."""
         return state
+
+    def check_state(self, state: Any) -> int:
+        """``state`` as an ``int`` cell index in ``[0, nrow * ncol)``.
+
+        Raises:
+            ValueError: It is not an integer (``bool`` included) or is out of range.
+        """
+        return check_index_state(self, state, self.nrow * self.ncol)
 
     def outcomes(self, theta: Params) -> TabularOutcomes:
         """The explicit table under ``theta``; the structure arrays are shared, not copied."""

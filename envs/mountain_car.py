@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -30,6 +30,10 @@ from ns_pz.envs.continuous import check_box_action, f32
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
+from ns_pz.states import check_real_state
+
+if TYPE_CHECKING:
+    from ns_pz.envs.rendering import GymnasiumPainter
 
 MIN_POSITION = -1.2
 MAX_POSITION = 0.6
@@ -44,6 +48,9 @@ _MIN_POSITION_32 = f32(MIN_POSITION)
 _MAX_POSITION_32 = f32(MAX_POSITION)
 _MAX_SPEED_32 = f32(MAX_SPEED)
 _GOAL_32 = f32(CONTINUOUS_GOAL_POSITION)
+
+_STATE_FIELDS = ("position", "velocity")
+_STATE_BOUNDS = ((MIN_POSITION, MAX_POSITION), (-MAX_SPEED, MAX_SPEED))
 
 State = tuple[float, float]
 ContinuousState = tuple[float, float, bool]
@@ -104,6 +111,8 @@ class MountainCarFamily(EnvFamily):
     """
 
     params_cls = MountainCarParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 30
 
     def __init__(self, goal_velocity: float = 0.0) -> None:
         self.goal_velocity = _check_goal_velocity(goal_velocity)
@@ -137,9 +146,23 @@ class MountainCarFamily(EnvFamily):
         terminal = position >= GOAL_POSITION and velocity >= self.goal_velocity
         return (position, velocity), -1.0, terminal
 
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's MountainCarEnv renderer (needs pygame; see :mod:`ns_pz.envs.rendering`)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_mountain_car
+
+        return GymnasiumPainter("MountainCarEnv", pose_mountain_car)
+
     def observe(self, state: State) -> np.ndarray:
         """``[position, velocity]`` as float32."""
         return np.array(state, dtype=np.float32)
+
+    def check_state(self, state: Any) -> State:
+        """``state`` as ``(position, velocity)`` in [-1.2, 0.6] x [-0.07, 0.07].
+
+        Raises:
+            ValueError: Another length, a non-number, NaN, infinity or a value out of bounds.
+        """
+        return check_real_state(self, state, _STATE_FIELDS, _STATE_BOUNDS)  # type: ignore[return-value]
 
     def __repr__(self) -> str:
         return f"MountainCarFamily(goal_velocity={self.goal_velocity!r})"
@@ -161,6 +184,8 @@ class MountainCarContinuousFamily(EnvFamily):
     """
 
     params_cls = MountainCarContinuousParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 30
 
     def __init__(self, goal_velocity: float = 0.0) -> None:
         self.goal_velocity = _check_goal_velocity(goal_velocity)
@@ -216,9 +241,32 @@ class MountainCarContinuousFamily(EnvFamily):
         reward = (100.0 if terminal else 0.0) - math.pow(push, 2) * 0.1
         return next_state, reward, terminal
 
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's Continuous_MountainCarEnv renderer (needs pygame)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_mountain_car
+
+        return GymnasiumPainter("Continuous_MountainCarEnv", pose_mountain_car)
+
     def observe(self, state: ContinuousState) -> np.ndarray:
         """``[position, velocity]`` as float32."""
         return np.array((state[0], state[1]), dtype=np.float32)
+
+    def check_state(self, state: Any) -> ContinuousState:
+        """``state`` as ``(position, velocity, stored_as_float32)`` (see :data:`ContinuousState`).
+
+        Position in [-1.2, 0.6], velocity in [-0.07, 0.07], the flag a ``bool``.
+
+        Raises:
+            ValueError: Another shape, a non-number, NaN, infinity or a value out of bounds.
+        """
+        if isinstance(state, tuple) and len(state) == 3 and isinstance(state[2], bool):
+            position, velocity = check_real_state(self, state[:2], _STATE_FIELDS, _STATE_BOUNDS)
+            return (position, velocity, state[2])
+        raise ValueError(
+            f"state={state!r} is not a state of {self!r}; allowed: a tuple (position, velocity, "
+            "stored_as_float32) with position in [-1.2, 0.6], velocity in [-0.07, 0.07] and a "
+            "bool, as get_state() returns"
+        )
 
     def __repr__(self) -> str:
         return f"MountainCarContinuousFamily(goal_velocity={self.goal_velocity!r})"

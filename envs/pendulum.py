@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from gymnasium import spaces
@@ -28,6 +28,10 @@ from ns_pz.envs.continuous import check_box_action, f32
 
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params, scalar
+from ns_pz.states import check_real_state
+
+if TYPE_CHECKING:
+    from ns_pz.envs.rendering import GymnasiumPainter
 
 State = tuple[float, float]
 """``(angle, angular_velocity)``: rad (0 is upright, not wrapped), rad/s."""
@@ -58,6 +62,8 @@ class PendulumFamily(EnvFamily):
     """
 
     params_cls = PendulumParams
+    render_modes = ("human", "rgb_array")
+    render_fps = 30
 
     def __init__(self) -> None:
         high = np.array([1.0, 1.0, MAX_SPEED], dtype=np.float32)
@@ -97,6 +103,21 @@ class PendulumFamily(EnvFamily):
         new_velocity = velocity + (3 * gravity / (2 * length) * math.sin(angle) + push) * dt
         new_velocity = min(max(new_velocity, -MAX_SPEED), MAX_SPEED)
         return (angle + new_velocity * dt, new_velocity), -cost, False
+
+    def check_state(self, state: Any) -> State:
+        """``state`` as ``(angle, angular_velocity)``: finite, the velocity within ±8 rad/s.
+
+        Raises:
+            ValueError: Another length, a non-number, NaN, infinity or a velocity out of bounds.
+        """
+        bounds = (None, (-MAX_SPEED, MAX_SPEED))
+        return check_real_state(self, state, ("angle", "angular_velocity"), bounds)  # type: ignore[return-value]
+
+    def painter(self) -> GymnasiumPainter:
+        """Gymnasium's PendulumEnv renderer (needs pygame; see :mod:`ns_pz.envs.rendering`)."""
+        from ns_pz.envs.rendering import GymnasiumPainter, pose_pendulum
+
+        return GymnasiumPainter("PendulumEnv", pose_pendulum)
 
     def observe(self, state: State) -> np.ndarray:
         """``[cos θ, sin θ, θ̇]`` as float32."""

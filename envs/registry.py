@@ -4,15 +4,16 @@ Every id names an environment family with default constructor arguments and a de
 limit. Three ways to build one:
 
 * ``gymnasium.make("ns_pz/FrozenLake-v0", ...)``: the Gymnasium view, with Gymnasium's usual
-  wrappers; the time limit is Gymnasium's ``TimeLimit`` (``max_episode_steps=`` of
-  ``gymnasium.make`` overrides it, as for any Gymnasium env);
+  wrappers; ``max_episode_steps=`` of ``gymnasium.make`` overrides the limit (``-1``: none), as
+  for any Gymnasium env, and the view enforces it by itself, not a ``TimeLimit`` wrapper, so its
+  planning copies continue the limit (:mod:`ns_pz.envs.time_limit`);
 * :func:`make_gym`: the same view, unwrapped, truncating by itself;
 * :func:`make`: the PettingZoo AEC game.
 
 Keyword arguments are split: ``params``, ``nature``, ``monitor``, ``notification``,
-``constraints``, ``max_episode_steps`` (and ``ground_truth_info`` / ``nature_reward`` for the
-view / game) configure the NS-MDP; everything else goes to the family's constructor
-(``map_name="8x8"``).
+``constraints``, ``max_episode_steps``, ``render_mode`` (and ``ground_truth_info`` /
+``nature_reward`` for the view / game) configure the NS-MDP; everything else goes to the
+family's constructor (``map_name="8x8"``).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium
+from ns_pz.envs.time_limit import WRAPPER_SPEC as VIEW_TIME_LIMIT
 
 from ns_pz.errors import UnknownEnvironment
 from ns_pz.family import EnvFamily
@@ -31,7 +33,15 @@ from ns_pz.game import NSGame
 from ns_pz.regret import default_reference
 from ns_pz.views import NSGymEnv
 
-_NS_KWARGS = {"params", "nature", "monitor", "notification", "constraints", "max_episode_steps"}
+_NS_KWARGS = {
+    "params",
+    "nature",
+    "monitor",
+    "notification",
+    "constraints",
+    "max_episode_steps",
+    "render_mode",
+}
 _VIEW_KWARGS = _NS_KWARGS | {"ground_truth_info"}
 _GAME_KWARGS = _NS_KWARGS | {
     "nature_reward",
@@ -84,6 +94,7 @@ def register(
         id=id,
         entry_point="ns_pz.envs.registry:_gymnasium_entry_point",
         max_episode_steps=max_episode_steps,
+        additional_wrappers=(VIEW_TIME_LIMIT,),
         kwargs={"env_id": id},
     )
 
@@ -129,7 +140,7 @@ def make_gym(env_id: str, **kwargs: Any) -> NSGymEnv:
 
 
 def _gymnasium_entry_point(env_id: str, **kwargs: Any) -> NSGymEnv:
-    """What ``gymnasium.make`` calls; Gymnasium's ``TimeLimit`` does the truncation."""
+    """What ``gymnasium.make`` calls; :class:`ViewTimeLimit` then sets the view's limit."""
     env_spec = spec(env_id)
     ns_kwargs, family_kwargs = _split(kwargs, _VIEW_KWARGS)
     ns_kwargs["max_episode_steps"] = None

@@ -12,12 +12,15 @@ so saving and restoring a simulator is copying a reference.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
 
 from ns_pz.params import Params
+
+if TYPE_CHECKING:
+    from ns_pz.rendering import Painter
 
 State = Any
 
@@ -33,6 +36,10 @@ class EnvFamily(ABC):
     params_cls: ClassVar[type[Params]]
     observation_space: spaces.Space[Any]
     action_space: spaces.Space[Any]
+    render_modes: ClassVar[tuple[str, ...]] = ()
+    """Render modes the family can draw (see :mod:`ns_pz.rendering`)."""
+    render_fps: ClassVar[int] = 30
+    """Frames per second of ``"human"`` rendering and of recorded videos."""
 
     def default_params(self) -> Params:
         """θ with every parameter at its default."""
@@ -63,6 +70,25 @@ class EnvFamily(ABC):
         elif space.contains(np.asarray(action, dtype=space.dtype)):
             return np.asarray(action, dtype=space.dtype)
         raise ValueError(f"action={action!r} is outside the action space {space}")
+
+    def check_state(self, state: Any) -> State:
+        """Return ``state`` in canonical form, or raise ``ValueError`` if it is not a state.
+
+        What :meth:`PlanningModel.set_state <ns_pz.planning.PlanningModel.set_state>` accepts.
+        Families override it with an exact check; this fallback accepts any value whose
+        observation lies in :attr:`observation_space`.
+        """
+        from ns_pz.states import check_observable_state
+
+        return check_observable_state(self, state)
+
+    def painter(self) -> Painter:
+        """A new painter of this family's states, for the modes in :attr:`render_modes`.
+
+        Raises:
+            NotImplementedError: The family draws nothing (no render modes).
+        """
+        raise NotImplementedError(f"{self!r} draws nothing: its render_modes are empty")
 
     def planning_model(self, theta: Params, state: State, rng: np.random.Generator) -> Any:
         """A stationary model under ``theta`` positioned at ``state``."""

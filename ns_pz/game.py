@@ -57,6 +57,7 @@ from ns_pz.process import (
     check_seed,
 )
 from ns_pz.regret import NATURE_REWARDS, NatureReward, RegretReference
+from ns_pz.rendering import Renderer, render_metadata
 
 MONITOR_ACTIONS = ("dict", "flags")
 
@@ -80,6 +81,12 @@ class NSGame(AECEnv):
         nature_action: ``"delta"`` (Δθ) or ``"normalized"`` (``Box(-1, 1)`` per allowance).
         nature_observes_state: Add the agent's state and last action to nature's observation.
         monitor_action: ``"dict"`` (flags and sizes) or ``"flags"`` (``MultiDiscrete``).
+        render_mode: ``None``, or one of the family's modes (``"human"``, ``"rgb_array"``, and
+            ``"ansi"`` for grid worlds): :meth:`render` draws the environment's state under the
+            θ in force; ``"human"`` redraws after every reset and transition.
+
+    Raises:
+        ValueError: ``render_mode`` is not one of the family's modes.
     """
 
     metadata: dict[str, Any] = {
@@ -103,9 +110,9 @@ class NSGame(AECEnv):
         nature_action: str = "delta",
         nature_observes_state: bool = False,
         monitor_action: str = "dict",
+        render_mode: str | None = None,
     ) -> None:
         super().__init__()
-        self.render_mode = None
         self._process = process = NSProcess(
             family,
             params=params,
@@ -120,6 +127,9 @@ class NSGame(AECEnv):
             raise ValueError(f"monitor_action={monitor_action!r}; allowed: {MONITOR_ACTIONS}")
         self._monitor_flags_only = monitor_action == "flags"
         self._nature = process.nature_interface(nature_action, nature_observes_state)
+        self._renderer = Renderer(family, render_mode)
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, **render_metadata(family)}
         params_cls = family.params_cls
         self.possible_agents = list(AGENTS)
         self.agents: list[str] = []
@@ -177,6 +187,8 @@ class NSGame(AECEnv):
         self.agent_selection = NATURE
         self._rewarded = False
         self._scripted = None
+        if self.render_mode == "human":
+            self.render()
 
     def observe(self, agent: str) -> Any:
         """What ``agent`` sees now (see :mod:`ns_pz.observations`)."""
@@ -261,6 +273,8 @@ class NSGame(AECEnv):
             self.terminations = dict.fromkeys(AGENTS, bool(terminated))
             self.truncations = dict.fromkeys(AGENTS, bool(truncated))
         self.agent_selection = NATURE
+        if self.render_mode == "human":
+            self.render()
 
     def _notification_of(self, action: Any) -> tuple[list, list]:
         """Flags and sizes of a monitor action (lengths and sizes are checked by the process)."""
@@ -342,13 +356,20 @@ class NSGame(AECEnv):
         """The process this game drives (for adapters and exact tools)."""
         return self._process
 
-    def render(self) -> None:
-        """No rendering yet: the game has no visual state of its own."""
-        return None
+    def render(self) -> None | np.ndarray | str:
+        """The environment's state under the θ in force, in :attr:`render_mode`.
+
+        A ``uint8`` frame ``[height, width, 3]`` (``"rgb_array"``), text (``"ansi"``), or
+        ``None`` (``"human"``, which draws into a window, or no render mode).
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        return self._renderer.render(self._process)
 
     def close(self) -> None:
-        """Nothing to release."""
-        return None
+        """Close the render window, if one is open."""
+        self._renderer.close()
 
 
 def _check_agent(agent: str) -> str:

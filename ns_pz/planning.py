@@ -2,8 +2,9 @@
 
 A :class:`PlanningModel` is stationary (θ is frozen inside it: planning never sees future
 changes) and cheap to save and restore, because the simulator state is a small immutable value.
-Search code either drives it statefully (``set_state`` / ``step``, the NS-Gym interface) or
-calls the pure :meth:`PlanningModel.transition`.
+Search code either drives it statefully (``set_state`` / ``step``, the NS-Gym interface, which
+validate what they are given) or calls the pure :meth:`PlanningModel.transition`, the unchecked
+fast path for loops that only pass back states and actions the model itself produced.
 
 Tabular families also hand out the explicit outcome table (:class:`TabularOutcomes`): outcome
 ``k`` of action ``a`` in state ``s`` has probability ``probs[s, a, k]`` and leads to
@@ -55,17 +56,32 @@ class PlanningModel:
         return self._state
 
     def set_state(self, state: State) -> None:
-        """Restore a state returned by :meth:`get_state`."""
-        self._state = state
+        """Restore a state returned by :meth:`get_state` (or any valid state of the family).
+
+        Raises:
+            ValueError: ``state`` is not a state of the family (see ``family.check_state``):
+                e.g. a cell index out of range, or a physical state with NaN in it.
+        """
+        self._state = self.family.check_state(state)
 
     def step(self, action: Any) -> tuple[State, float, bool]:
-        """Advance from the current state: next state, reward, terminal."""
+        """Advance from the current state: next state, reward, terminal.
+
+        Raises:
+            ValueError: ``action`` is not in the family's action space.
+        """
+        action = self.family.check_action(action)
         result = self._step(self._state, action, self.theta, self.rng)
         self._state = result[0]
         return result
 
     def transition(self, state: State, action: Any) -> tuple[State, float, bool]:
-        """One sampled transition from ``state``, leaving the model's own state alone."""
+        """One sampled transition from ``state``, leaving the model's own state alone.
+
+        Unchecked, for search loops: ``state`` must come from this model (:meth:`get_state`,
+        an earlier transition) and ``action`` must be in the action space; anything else gives
+        undefined results. Use :meth:`set_state` and :meth:`step` for values from elsewhere.
+        """
         return self._step(state, action, self.theta, self.rng)
 
     def clone(self) -> PlanningModel:

@@ -29,6 +29,7 @@ from ns_pz.nature.policies import Nature
 from ns_pz.observations import agent_observation_space
 from ns_pz.params import Params
 from ns_pz.process import DECISION, GroundTruth, NSProcess, check_seed
+from ns_pz.rendering import Renderer, render_metadata
 
 
 class NSGymEnv(gym.Env[dict[str, Any], Any]):
@@ -45,6 +46,11 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         max_episode_steps: Transitions after which an episode is truncated.
         ground_truth_info: Put the θ of the last transition into ``info["theta"]`` (for
             evaluation only).
+        render_mode: ``None``, or one of the family's modes (``"human"``, ``"rgb_array"``, and
+            ``"ansi"`` for grid worlds); see :mod:`ns_pz.rendering`.
+
+    Raises:
+        ValueError: ``render_mode`` is not one of the family's modes.
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -60,6 +66,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         constraints: NatureConstraints | None = None,
         max_episode_steps: int | None = 500,
         ground_truth_info: bool = False,
+        render_mode: str | None = None,
     ) -> None:
         self._process = NSProcess(
             family,
@@ -71,6 +78,9 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             max_episode_steps=max_episode_steps,
         )
         self._ground_truth_info = bool(ground_truth_info)
+        self._renderer = Renderer(family, render_mode)
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, **render_metadata(family)}
         self.observation_space = agent_observation_space(family)
         self.action_space = family.action_space
 
@@ -96,6 +106,8 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             self._np_random = process.env_rng
         process.reset(options)
         process.play_until(DECISION)
+        if self.render_mode == "human":
+            self.render()
         return process.agent_observation(), self._info()
 
     def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
@@ -107,7 +119,21 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         if not process.done:
             process.play_until(DECISION)
         obs = process.agent_observation()
+        if self.render_mode == "human":
+            self.render()
         return obs, float(reward), bool(terminated), bool(truncated), self._info()
+
+    def render(self) -> Any:
+        """The current state in :attr:`render_mode`: a frame, text, or ``None`` (human, none).
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        return self._renderer.render(self._process)
+
+    def close(self) -> None:
+        """Close the render window, if one is open."""
+        self._renderer.close()
 
     # -- ns_pz extras -----------------------------------------------------------------------
     @property
@@ -122,7 +148,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
 
     @property
     def max_episode_steps(self) -> int | None:
-        """Transitions after which an episode is truncated (``None``: Gymnasium's TimeLimit)."""
+        """Transitions after which an episode is truncated (``None``: never)."""
         return self._process.max_episode_steps
 
     @property
@@ -189,6 +215,8 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         else:
             twin._process = process.stationary_copy(theta)
         twin._np_random = twin._process.env_rng
+        twin._renderer = self._renderer.branch()
+        twin.render_mode = twin._renderer.mode
         return twin
 
     @property

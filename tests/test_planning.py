@@ -2,7 +2,11 @@
 
 from __future__ import annotations
 
+import math
+import re
+
 import numpy as np
+import pytest
 from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
 
 import ns_pz
@@ -59,3 +63,83 @@ def test_terminal_cells_absorb():
     for cell in (5, 15):
         assert (table.next_states[cell] == cell).all() and table.terminals[cell].all()
         assert not table.rewards[cell].any()
+
+
+# -- validation at the public set_state / step (issue 9, item 8) --------------------------------
+_BAD_STATES = [-1, 10**6, None, True, 1.5, "0", (math.nan,) * 4, (math.nan,) * 2, (math.inf, 0.0)]
+_BAD_ACTIONS = [5, -1, None, 1.5, True, [math.nan], "1"]
+
+
+@pytest.mark.parametrize("env_id", ns_pz.registered_envs())
+def test_every_planning_model_refuses_garbage_states_and_actions(env_id):
+    """set_state and step refuse what is not a state or an action, naming it; valid ones pass."""
+    env = ns_pz.make_gym(env_id)
+    env.reset(seed=0)
+    model = env.planning_model()
+    start = model.get_state()
+    model.set_state(start)
+    for bad in _BAD_STATES:
+        with pytest.raises(ValueError, match=re.escape(f"state={bad!r}")):
+            model.set_state(bad)
+        assert model.get_state() == start
+    for bad in _BAD_ACTIONS:
+        with pytest.raises(ValueError, match=re.escape(f"action={bad!r}")):
+            model.step(bad)
+        assert model.get_state() == start
+    model.step(env.action_space.sample())
+
+
+def test_cartpole_model_refuses_actions_it_used_to_read_as_zero():
+    """Actions 5, -1 and None used to push left like action 0."""
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    for bad in (5, -1, None):
+        with pytest.raises(ValueError, match=rf"action={bad!r} is outside the action space"):
+            model.step(bad)
+
+
+def test_frozen_lake_model_refuses_a_negative_cell():
+    """set_state(-1) used to index from the end: step(1) then returned cell 15, the goal."""
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    with pytest.raises(ValueError, match=r"state=-1 .*allowed: an int in \[0, 16\)"):
+        model.set_state(-1)
+    model.set_state(np.int64(14))
+    assert type(model.get_state()) is int
+
+
+def test_physical_models_refuse_non_finite_and_out_of_bounds_states():
+    """NaN anywhere, a wrong length and a velocity the dynamics never reach are refused."""
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    with pytest.raises(ValueError, match=r"x=nan is not finite"):
+        model.set_state((math.nan,) * 4)
+    with pytest.raises(ValueError, match=r"has 3 entries; allowed: a tuple of 4 finite floats"):
+        model.set_state((0.0, 0.0, 0.0))
+    model.set_state(np.array([0.1, 0.0, -0.1, 0.0]))  # an array is accepted and stored as floats
+    assert model.get_state() == (0.1, 0.0, -0.1, 0.0)
+    pendulum = ns_pz.make_gym("ns_pz/Pendulum-v0")
+    pendulum.reset(seed=0)
+    with pytest.raises(ValueError, match=r"angular_velocity=9.0 is outside \[-8.0, 8.0\]"):
+        pendulum.planning_model().set_state((0.0, 9.0))
+    cliff = ns_pz.make_gym("ns_pz/CliffWalking-v0")
+    cliff.reset(seed=0)
+    with pytest.raises(ValueError, match=r"state=40 is a cliff cell"):
+        cliff.planning_model().set_state(40)
+
+
+def test_outcome_table_model_refuses_garbage_too():
+    """The model over a hand-built table checks set_state and step like the families' models."""
+    from ns_pz.agents.search.table_model import OutcomeTableModel
+
+    family = FrozenLakeFamily("4x4")
+    model = OutcomeTableModel(family.outcomes(FrozenLakeParams()), 0, np.random.default_rng(0))
+    with pytest.raises(ValueError, match=r"state=-1 .*\[0, 16\)"):
+        model.set_state(-1)
+    with pytest.raises(ValueError, match=r"action=4 is outside"):
+        model.step(4)
+    model.set_state(np.int32(3))
+    assert model.step(np.int64(0))[0] in range(16)

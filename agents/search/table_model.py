@@ -12,6 +12,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ns_pz.planning import TabularOutcomes
+from ns_pz.states import check_index_state
 
 
 class OutcomeTableModel:
@@ -30,7 +31,7 @@ class OutcomeTableModel:
         check_outcomes(outcomes)
         self.outcomes = outcomes
         self.rng = rng
-        self._state = int(state)
+        self._state = check_index_state(self, state, outcomes.probs.shape[0])
         self.action_space = spaces.Discrete(outcomes.probs.shape[1])
         self._probs = outcomes.probs.tolist()
         self._next = outcomes.next_states.tolist()
@@ -42,17 +43,34 @@ class OutcomeTableModel:
         return self._state
 
     def set_state(self, state: int) -> None:
-        """Move to ``state``."""
-        self._state = int(state)
+        """Move to ``state``.
+
+        Raises:
+            ValueError: ``state`` is not an integer in ``[0, num_states)``.
+        """
+        self._state = check_index_state(self, state, len(self._probs))
 
     def step(self, action: int) -> tuple[int, float, bool]:
-        """Advance from the current state: next state, reward, terminal."""
+        """Advance from the current state: next state, reward, terminal.
+
+        Raises:
+            ValueError: ``action`` is not an integer in ``[0, num_actions)``.
+        """
+        if not (type(action) is int and 0 <= action < self.action_space.n):
+            if not self.action_space.contains(action) or isinstance(action, (bool, np.bool_)):
+                raise ValueError(
+                    f"action={action!r} is outside the action space {self.action_space}"
+                )
+            action = int(action)
         result = self.transition(self._state, action)
         self._state = result[0]
         return result
 
     def transition(self, state: int, action: int) -> tuple[int, float, bool]:
-        """One sampled transition from ``state`` (one uniform draw from :attr:`rng`)."""
+        """One sampled transition from ``state`` (one uniform draw from :attr:`rng`).
+
+        Unchecked, for search loops (``set_state`` and ``step`` check what they are given).
+        """
         probs = self._probs[state][action]
         u = self.rng.random()
         total = 0.0
