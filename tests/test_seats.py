@@ -295,3 +295,31 @@ def test_learner_agent_gets_policy_nature_and_monitor():
     obs, *_ = env.step(0)
     obs, *_ = env.step(0)
     assert obs["env_change"].all() and math.isclose(obs["delta_change"][2], 0.001, rel_tol=1e-3)
+
+
+def test_the_game_pays_nature_its_regret_at_the_end():
+    """In the game, nature's cumulative reward is the oracle's value minus the agent's return."""
+    game = ns_pz.make(
+        "ns_pz/FrozenLake-v0",
+        nature_reward="regret",
+        nature_action="normalized",
+        constraints=BOUNDED,
+        max_episode_steps=15,
+        **LAKE,
+    )
+    game.reset(seed=2)
+    totals = dict.fromkeys(game.possible_agents, 0.0)
+    for agent in game.agent_iter():
+        _, reward, terminated, truncated, _ = game.last()
+        totals[agent] += reward
+        if terminated or truncated:
+            game.step(None)
+        elif agent == NATURE:
+            game.step(np.array([-1.0, 0.0, 1.0], np.float32))
+        elif agent == MONITOR:
+            game.step(game.policy_action(MONITOR))
+        else:
+            game.step(2)
+    oracle = OracleReference()(game.process)
+    assert totals[NATURE] == pytest.approx(oracle - totals[DECISION])
+    assert oracle > totals[DECISION]
