@@ -751,3 +751,53 @@ def test_cartpole_steps_equal_gymnasium_with_the_change_applied_first():
         obs, _, terminated, _, _ = env.step(action)
         raw_obs, _, raw_terminated, _, _ = raw.step(action)
         assert np.allclose(obs["state"], raw_obs, atol=1e-6) and terminated == raw_terminated
+
+
+class OwnGeneratorScheduler(RandomScheduler):
+    """A user subclass with its own rule (even steps only) and its own generator."""
+
+    def __init__(self, probability, seed):
+        super().__init__(probability)
+        self.my_rng = np.random.default_rng(seed)
+
+    def _check(self, t):
+        return t % 2 == 0 and bool(self.my_rng.random() < self.probability)
+
+
+class OwnGeneratorBase(base.Scheduler):
+    """The same rule on NS-Gym's abstract Scheduler."""
+
+    def __init__(self, probability, seed):
+        super().__init__()
+        self.probability = probability
+        self.my_rng = np.random.default_rng(seed)
+
+    _check = OwnGeneratorScheduler._check
+
+
+def firing_steps(env, seed, steps=30):
+    """Steps at which the wrapper's masspole changed in one episode."""
+    env.reset(seed=seed)
+    changed = []
+    for t in range(steps):
+        obs, _, terminated, truncated, _ = env.step(t % 2)
+        if obs["env_change"]["masspole"]:
+            changed.append(t)
+        if terminated or truncated:
+            break
+    return changed
+
+
+@pytest.mark.parametrize("scheduler_cls", [OwnGeneratorScheduler, OwnGeneratorBase])
+def test_a_scheduler_subclass_with_its_own_generator_follows_the_reset_seed(scheduler_cls):
+    """Its rule runs and its generator is reseeded from reset(seed=...) (issue 9, item 12)."""
+    env = cartpole(
+        {"masspole": IncrementUpdate(scheduler_cls(0.5, seed=1), k=0.01)},
+        change_notification=True,
+    )
+    first = firing_steps(env, 3)
+    assert first and all(t % 2 == 0 for t in first)
+    assert first == firing_steps(env, 3)
+    assert first != firing_steps(env, 4)
+    env.reset(seed=3)
+    assert firing_steps(env, None) != firing_steps(env, None)
