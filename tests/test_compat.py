@@ -20,6 +20,7 @@ import ns_pz.compat
 from ns_pz import ResetNeeded
 from ns_pz.compat import base, schedulers, wrappers
 from ns_pz.compat import update_functions as uf
+from ns_pz.compat.families import CLASSIC_CONTROL
 from ns_pz.compat.schedulers import (
     BurstScheduler,
     ContinuousScheduler,
@@ -100,7 +101,11 @@ def test_paper_listing_runs_unchanged_but_for_the_package_name():
     planning_env = namespace["planning_env"]
     assert set(obs) == {"state", "env_change", "delta_change", "relative_time"}
     assert obs["env_change"] == {"masspole": 0, "gravity": 0}
-    assert obs["relative_time"] == 0 and info == {}
+    assert obs["relative_time"] == 0
+    assert info == {
+        "Ground Truth Env Change": {"masspole": 0, "gravity": 0},
+        "Ground Truth Delta Change": {"masspole": 0, "gravity": 0},
+    }
     assert isinstance(planning_env, NSClassicControlWrapper) and planning_env.is_sim_env
     gravity = [ns_env.get_params()["gravity"]]
     for step in range(1, 5):
@@ -358,18 +363,35 @@ def test_freeze_hides_notifications_but_parameters_keep_changing():
     assert env.step(0)[0]["env_change"] == {"masspole": 1}
 
 
-def test_ground_truth_is_opt_in():
-    """D8: info is empty by default; ground_truth_info=True adds NS-Gym's two keys."""
+def test_ground_truth_info_has_nsgym_keys_and_types():
+    """The info dict holds NS-Gym's two ground-truth keys, unmasked (issue 9, item 10).
+
+    NS-Gym 1.0.12 (FrozenLake, DistributionDecrementUpdate(ContinuousScheduler(), k=0.1),
+    basic notification) gives at reset ``{"Ground Truth Env Change": {"P": 0},
+    "Ground Truth Delta Change": {"P": 0}}`` (two ints) and after a step ``{"P": 1}`` (int) and
+    a float size (ns_pz's is the total variation 0.1, NS-Gym's W1 over positions 0.15), plus
+    ``"transition_prob"``. ``ground_truth_info=False`` leaves the two keys out.
+    """
     tunable = {"P": DistributionDecrementUpdate(ContinuousScheduler(), k=0.1)}
-    lake = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable)
-    lake.reset(seed=0)
+    lake = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable, change_notification=True)
+    _, info = lake.reset(seed=0)
+    assert info == {wrappers.GROUND_TRUTH_CHANGE: {"P": 0}, wrappers.GROUND_TRUTH_DELTA: {"P": 0}}
+    assert [type(v["P"]) for v in info.values()] == [int, int]
     obs, _, _, _, info = lake.step(2)
-    assert info == {} and obs["env_change"] == {"P": 0}
-    lake = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable, ground_truth_info=True)
-    lake.reset(seed=0)
-    info = lake.step(2)[4]
-    assert info[wrappers.GROUND_TRUTH_CHANGE] == {"P": 1}
+    assert info[wrappers.GROUND_TRUTH_CHANGE] == {"P": 1} == obs["env_change"]
+    assert type(info[wrappers.GROUND_TRUTH_CHANGE]["P"]) is int
+    assert type(info[wrappers.GROUND_TRUTH_DELTA]["P"]) is float
     assert info[wrappers.GROUND_TRUTH_DELTA]["P"] == pytest.approx(0.1)
+    assert obs["delta_change"] == {"P": 0.0}  # masked: no delta notification, truth unmasked
+    assert info["transition_prob"] == pytest.approx([0.9, 0.05, 0.05])
+    quiet = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable, ground_truth_info=False)
+    assert quiet.reset(seed=0)[1] == {}
+    assert set(quiet.step(2)[4]) == {"transition_prob"}
+    cart = cartpole({"masspole": IncrementUpdate(ContinuousScheduler(), k=0.1)})
+    cart.reset(seed=0)
+    info = cart.step(0)[4]
+    assert info[wrappers.GROUND_TRUTH_DELTA]["masspole"] == pytest.approx(0.1)
+    assert info[wrappers.GROUND_TRUTH_CHANGE] == {"masspole": 1}
 
 
 def theta_path(env, seed, steps=15):
@@ -700,7 +722,7 @@ def test_other_classic_control_envs(env_id, module, param):
     """Each NS-Gym name maps to a θ field, θ_0 is read from the env, a schedule changes θ."""
     pytest.importorskip(module)
     env = gym.make(env_id)
-    binding = wrappers.CLASSIC_CONTROL[type(env.unwrapped).__name__]
+    binding = CLASSIC_CONTROL[type(env.unwrapped).__name__]
     params_cls = binding.family_class().params_cls
     assert set(binding.names.values()) <= set(params_cls.names())
     wrapped = NSClassicControlWrapper(

@@ -380,3 +380,12 @@ class _TunableParams(Mapping[str, dict[str, Any]]):
 
 TUNABLE_PARAMS = _TunableParams()
 """Environment class name -> {NS-Gym parameter name: default value}."""
+
+
+def __getattr__(name: str) -> Any:
+    """``NSWrapper``, which NS-Gym keeps in ``ns_gym.base`` (loaded on first use)."""
+    if name == "NSWrapper":
+        from ns_pz.compat.wrappers.core import NSWrapper
+
+        return NSWrapper
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
