@@ -873,6 +873,11 @@ def test_cartpole_reads_include_the_derived_quantities():
         for owner in (env.unwrapped, ns_env.unwrapped):
             read = (owner.masspole, owner.total_mass, owner.polemass_length)
             assert read == pytest.approx(expected)
+    # A planning env reads its own θ: the initial one here (no delta notification), as NS-Gym.
+    planning = ns_env.get_planning_env()
+    assert planning.unwrapped.masspole == 0.1 and env.unwrapped.masspole == pytest.approx(0.4)
+    planning.step(0)
+    assert planning.unwrapped.masspole == 0.1 and env.unwrapped.masspole == pytest.approx(0.4)
 
 
 def test_stepping_the_wrapped_env_by_hand_uses_the_current_theta():
