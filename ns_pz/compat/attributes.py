@@ -132,8 +132,8 @@ def _adopted_class(original: type, binding: Binding) -> type:
     return type(original.__name__, (original,), namespace)
 
 
-def _rebuild(cls: type, state: dict[str, Any]) -> Any:
-    env = cls.__new__(cls)
+def _rebuild(cls: type[Any], state: dict[str, Any]) -> Any:
+    env = object.__new__(cls)
     env.__dict__.update(state)
     return env
 

@@ -79,7 +79,8 @@ def explicit_seeds(fn: object) -> list[int]:
     inner = getattr(fn, "inner", None)
     if inner is not None:
         parts += [inner, getattr(inner, "scheduler", None)]
-    return [part._seed for part in parts if getattr(part, "_seed", None) is not None]
+    seeds = [getattr(part, "_seed", None) for part in parts]
+    return [seed for seed in seeds if seed is not None]
 
 
 class Scheduler(ABC):
