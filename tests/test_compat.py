@@ -1095,3 +1095,20 @@ def test_bridge_slip_attributes_take_effect():
     assert wrapped.get_params() == {"P": [0.4, 0.3, 0.3]}  # the env's own P is θ_0
     with pytest.raises(AttributeError, match="read-only"):
         bridge.P = [1.0, 0.0, 0.0]
+
+
+def test_bridge_split_mode_follows_the_tunable_names_as_in_nsgym():
+    """{"P_left": fn} on a plain Bridge switches it to split mode; (left, right) start apart."""
+    bridge = gym.make("ns_pz_compat/Bridge-v0")
+    wrapped = NSBridgeWrapper(
+        bridge,
+        {"P_left": DistributionDecrementUpdate(ContinuousScheduler(), k=0.1)},
+        initial_prob_dist=([1.0, 0.0, 0.0], [0.5, 0.25, 0.25]),
+    )
+    assert bridge.unwrapped.split_probs
+    wrapped.reset(seed=0)
+    wrapped.step(3)
+    params = wrapped.get_params()
+    assert params["P_left"] == pytest.approx([0.9, 0.05, 0.05])
+    assert params["P_right"] == [0.5, 0.25, 0.25]
+    assert bridge.unwrapped.P_right == [0.5, 0.25, 0.25]

@@ -110,6 +110,19 @@ class Bridge(gym.Env[int, int]):
         """NS-Gym's table ``P[s][a] = [(prob, next_state, reward, terminated), ...]`` now."""
         return transition_table(self.family, self.theta)
 
+    def split(self) -> None:
+        """Switch to one slip vector per half (``P_left``, ``P_right``), both the current ``P``.
+
+        What NS-Gym's wrapper does to a Bridge when its ``tunable_params`` name a half.
+        """
+        if self.split_probs:
+            return
+        slip = self._slip("P")
+        family = SplitBridgeFamily(map_name=MAP_NAMES[self.map_name])
+        self.theta = family.params_cls(slip_left=slip, slip_right=slip)
+        self.family = family
+        self.split_probs = True
+
     def _field(self, name: str) -> str:
         field = _SLIP_FIELDS[self.split_probs].get(name)
         if field is None:

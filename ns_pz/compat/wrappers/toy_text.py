@@ -199,9 +199,11 @@ class NSCliffWalkingWrapper(_GridWrapper):
 class NSBridgeWrapper(_GridWrapper):
     """The Bridge (``gymnasium.make("ns_pz_compat/Bridge-v0")``) with slip vector(s) as θ.
 
-    ``P`` is the global slip vector ``[intended, action+1, action-1]``; with a Bridge built with
-    ``split_probs=True`` the parameters are ``P_left`` and ``P_right``, both starting from
-    ``initial_prob_dist``. Without ``initial_prob_dist`` they start from the Bridge's own (its
+    ``P`` is the global slip vector ``[intended, action+1, action-1]``; in split mode (a Bridge
+    built with ``split_probs=True``, or ``tunable_params`` naming ``P_left`` or ``P_right``,
+    which switches the Bridge to it as NS-Gym does) the parameters are ``P_left`` and
+    ``P_right``, both starting from ``initial_prob_dist`` (or from ``(left, right)``, a pair of
+    vectors). Without ``initial_prob_dist`` they start from the Bridge's own (its
     ``global_init_probs``, or what you set as ``env.unwrapped.P``; NS-Gym's default
     ``[1, 0, 0]`` is the Bridge's default too). ``modified_rewards`` must be ``None``: the
     Bridge's rewards are fixed (NS-Gym accepts and ignores it).
@@ -227,6 +229,10 @@ class NSBridgeWrapper(_GridWrapper):
                 "-1 hole, 0 elsewhere); pass None"
             )
         self._initial_prob_dist = initial_prob_dist
+        split_names = {"P_left", "P_right"}
+        if isinstance(tunable_params, Mapping) and split_names & set(tunable_params):
+            if env_class_name(env) == BRIDGE.env_class and hasattr(env.unwrapped, "split"):
+                env.unwrapped.split()
         super().__init__(
             env,
             tunable_params,
@@ -248,10 +254,15 @@ class NSBridgeWrapper(_GridWrapper):
         self, env: gym.Env[Any, Any], binding: Binding, settings: dict[str, Any]
     ) -> tuple[EnvFamily, Params]:
         family: EnvFamily = env.unwrapped.family  # type: ignore[attr-defined]
-        if self._initial_prob_dist is None:
+        initial = self._initial_prob_dist
+        if initial is None:
             return family, env.unwrapped.theta  # type: ignore[attr-defined]
-        slip = self._initial(self._initial_prob_dist, 3)
         names = family.params_cls.names()
+        pair = isinstance(initial, tuple) and len(initial) == 2
+        if pair and all(isinstance(v, Sequence) for v in initial) and len(names) == 2:
+            left, right = (self._initial(v, 3) for v in initial)  # type: ignore[arg-type]
+            return family, family.params_cls(**dict(zip(names, (left, right), strict=True)))
+        slip = self._initial(initial, 3)
         return family, family.params_cls(**dict.fromkeys(names, slip))
 
 
