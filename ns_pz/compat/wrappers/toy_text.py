@@ -39,6 +39,39 @@ class _GridWrapper(NSWrapper):
     """Grid worlds: θ is the slip vector ``P`` (the intended move first)."""
 
     _slip_doc: ClassVar[str] = ""
+    _default_slip: ClassVar[tuple[float, ...]] = (1.0, 0.0, 0.0)
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
+        change_notification: bool = False,
+        delta_change_notification: bool = False,
+        in_sim_change: bool = False,
+        initial_prob_dist: Sequence[float] | None = None,
+        modified_rewards: Mapping[str, float] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        self._initial_prob_dist = initial_prob_dist
+        self._modified_rewards = modified_rewards
+        super().__init__(
+            env,
+            tunable_params,
+            change_notification,
+            delta_change_notification,
+            in_sim_change,
+            **known_kwargs(kwargs),
+        )
+        first = self.process.theta0
+        self.initial_prob_dist = list(getattr(first, first.names()[0]))
+        self.modified_rewards = modified_rewards
+
+    def _initial_slip(self) -> tuple[float, ...]:
+        """θ_0's slip vector: ``initial_prob_dist``, or the class default when it is None."""
+        initial = self._initial_prob_dist
+        return self._initial(
+            self._default_slip if initial is None else initial, len(self._default_slip)
+        )
 
     def _initial(self, initial_prob_dist: object, size: int) -> tuple[float, ...]:
         vector = check_distribution("initial_prob_dist", initial_prob_dist)
@@ -75,8 +108,8 @@ class NSFrozenLakeWrapper(_GridWrapper):
     """FrozenLake-v1 (any map) with the slip vector ``P = [intended, action+1, action-1]``.
 
     Args:
-        initial_prob_dist: θ_0's slip vector (the base env's ``is_slippery`` is ignored, as in
-            NS-Gym).
+        initial_prob_dist: θ_0's slip vector, default ``[1, 0, 0]`` (the base env's
+            ``is_slippery`` is ignored, as in NS-Gym).
         modified_rewards: Reward for entering each cell letter (``"G"``, ``"H"``, ``"F"``, and
             ``"S"`` equal to ``"F"``); letters not given keep the env's ``reward_schedule``
             (Gymnasium's default: 1 for the goal, 0 elsewhere; NS-Gym ignores the env's).
@@ -85,30 +118,6 @@ class NSFrozenLakeWrapper(_GridWrapper):
 
     _accepts = "gymnasium.make('FrozenLake-v1', ...)"
     _slip_doc = "([intended, action+1, action-1])"
-
-    def __init__(
-        self,
-        env: gym.Env[Any, Any],
-        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
-        change_notification: bool = False,
-        delta_change_notification: bool = False,
-        in_sim_change: bool = False,
-        initial_prob_dist: Sequence[float] = (1.0, 0.0, 0.0),
-        modified_rewards: Mapping[str, float] | None = None,
-        **kwargs: Any,
-    ) -> None:
-        self._initial_prob_dist = initial_prob_dist
-        self._modified_rewards = modified_rewards
-        super().__init__(
-            env,
-            tunable_params,
-            change_notification,
-            delta_change_notification,
-            in_sim_change,
-            **known_kwargs(kwargs),
-        )
-        self.initial_prob_dist = list(self.process.theta0.slip)  # type: ignore[attr-defined]
-        self.modified_rewards = modified_rewards
 
     def _binding(self, env: gym.Env[Any, Any]) -> Binding:
         if env_class_name(env) != FROZEN_LAKE.env_class:
@@ -127,14 +136,14 @@ class NSFrozenLakeWrapper(_GridWrapper):
         family = FrozenLakeFamily(
             desc=desc, reward_schedule=(rewards["G"], rewards["H"], rewards["F"])
         )
-        return family, FrozenLakeParams(slip=self._initial(self._initial_prob_dist, 3))
+        return family, FrozenLakeParams(slip=self._initial_slip())
 
 
 class NSCliffWalkingWrapper(_GridWrapper):
     """CliffWalking-v1 with the slip vector ``P = [intended, action+1, action-1, reverse]``.
 
     Args:
-        initial_prob_dist: θ_0's slip vector.
+        initial_prob_dist: θ_0's slip vector, default ``[1, 0, 0, 0]``.
         modified_rewards: Reward for entering each cell letter: ``"H"`` (the cliff, default
             -100), ``"G"`` (default 0), ``"F"`` and ``"S"`` (default -1, equal to each other).
         terminal_cliff: Stepping into the cliff also ends the episode (the agent is put back on
@@ -144,6 +153,7 @@ class NSCliffWalkingWrapper(_GridWrapper):
 
     _accepts = "gymnasium.make('CliffWalking-v1') (not slippery)"
     _slip_doc = "([intended, action+1, action-1, reverse])"
+    _default_slip = (1.0, 0.0, 0.0, 0.0)
 
     def __init__(
         self,
@@ -152,15 +162,13 @@ class NSCliffWalkingWrapper(_GridWrapper):
         change_notification: bool = False,
         delta_change_notification: bool = False,
         in_sim_change: bool = False,
-        initial_prob_dist: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
+        initial_prob_dist: Sequence[float] | None = None,
         modified_rewards: Mapping[str, float] | None = None,
         terminal_cliff: bool = False,
         **kwargs: Any,
     ) -> None:
         if not isinstance(terminal_cliff, (bool, np.bool_)):
             raise TypeError(f"terminal_cliff={terminal_cliff!r} must be a bool")
-        self._initial_prob_dist = initial_prob_dist
-        self._modified_rewards = modified_rewards
         self.terminal_cliff = bool(terminal_cliff)
         super().__init__(
             env,
@@ -168,10 +176,10 @@ class NSCliffWalkingWrapper(_GridWrapper):
             change_notification,
             delta_change_notification,
             in_sim_change,
-            **known_kwargs(kwargs),
+            initial_prob_dist,
+            modified_rewards,
+            **kwargs,
         )
-        self.initial_prob_dist = list(self.process.theta0.slip)  # type: ignore[attr-defined]
-        self.modified_rewards = modified_rewards
 
     def _binding(self, env: gym.Env[Any, Any]) -> Binding:
         if env_class_name(env) != CLIFF_WALKING.env_class:
@@ -193,7 +201,7 @@ class NSCliffWalkingWrapper(_GridWrapper):
             step_reward=rewards["F"],
             terminal_cliff=self.terminal_cliff,
         )
-        return family, CliffWalkingParams(slip=self._initial(self._initial_prob_dist, 4))
+        return family, CliffWalkingParams(slip=self._initial_slip())
 
 
 class NSBridgeWrapper(_GridWrapper):
@@ -228,7 +236,6 @@ class NSBridgeWrapper(_GridWrapper):
                 f"modified_rewards={modified_rewards!r}: the Bridge's rewards are fixed (+1 goal, "
                 "-1 hole, 0 elsewhere); pass None"
             )
-        self._initial_prob_dist = initial_prob_dist
         split_names = {"P_left", "P_right"}
         if isinstance(tunable_params, Mapping) and split_names & set(tunable_params):
             if env_class_name(env) == BRIDGE.env_class and hasattr(env.unwrapped, "split"):
@@ -239,11 +246,10 @@ class NSBridgeWrapper(_GridWrapper):
             change_notification,
             delta_change_notification,
             in_sim_change,
-            **known_kwargs(kwargs),
+            initial_prob_dist,
+            None,
+            **kwargs,
         )
-        first = self.process.theta0
-        self.initial_prob_dist = list(getattr(first, first.names()[0]))
-        self.modified_rewards = None
 
     def _binding(self, env: gym.Env[Any, Any]) -> Binding:
         if env_class_name(env) != BRIDGE.env_class or not hasattr(env.unwrapped, "family"):
