@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import copy
 import math
+import pickle
 import re
 import textwrap
 import warnings
@@ -950,6 +951,11 @@ def test_writes_that_bypass_nature_are_refused_with_the_way_to_do_it(env_id, nam
     ns_env.reset(seed=0)
     assert getattr(snapshot, name) == 0.5 and getattr(env.unwrapped, name) != 0.5
     setattr(snapshot, name, 0.7)  # a copy is a plain env again
+    ns_env.unwrapped.set_params(**{native: 0.5})
+    revived = pickle.loads(pickle.dumps(ns_env))
+    assert getattr(revived.base_env.unwrapped, name) == 0.5
+    revived.unwrapped.set_params(**{native: 0.6})
+    assert getattr(revived.base_env.unwrapped, name) == 0.6 and getattr(env.unwrapped, name) == 0.5
 
 
 def test_grid_reads_transition_prob_and_tables():

@@ -306,6 +306,11 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         twin.env = copy.deepcopy(self.core, memo)
         return twin
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled: the env passed (pickled as a plain snapshot) reads this wrapper's θ again."""
+        self.__dict__.update(state)
+        adopt(self.base_env.unwrapped, self.core, self.binding)
+
     # -- construction helpers -----------------------------------------------------------------
     def _check_tunable(
         self, tunable_params: object, binding: Binding, params_cls: type[Params]
