@@ -10,8 +10,10 @@ it:
 * :func:`adopt` turns those attributes of the env you passed (``env.unwrapped``) into
   read-only views onto the same θ, so stepping that env by hand also uses it.
 
-What a read shows: θ at reset; after a step, the θ that drove that step's transition (NS-Gym
-applies a change just before the transition it affects, so its reads show the same values).
+What a read shows: θ_0 at reset; after a step, the θ that drove that step's transition (NS-Gym
+applies a change just before the transition it affects, so its reads show the same values), even
+where nature has already chosen the next one. A change by hand (``set_params``) shows once a
+transition has used it.
 Writes are refused with :class:`ReadOnlyParam`: θ changes through the wrapper's update
 functions, or by hand through ``ns_env.unwrapped.set_params``.
 """
@@ -48,7 +50,7 @@ class CompatCore(NSGymEnv):
             AttributeError: ``name`` is not one of the binding's readable attributes.
         """
         binding = self._ns_gym_binding
-        theta = self.process.theta
+        theta = self.process.last_theta
         if name == binding.table_attribute:
             return transition_table(self.family, theta)
         if name == "theta":
@@ -80,8 +82,8 @@ def read_only(binding: Binding, name: str, owner: str) -> ReadOnlyParam:
         f"{owner}.{name} is read-only: it shows the parameters of the NS-Gym wrapper's episode, "
         "which change only through nature. Give the wrapper an update function in "
         f"tunable_params to change it over time, or set it by hand during an episode with "
-        f"ns_env.unwrapped.set_params({field}=...); to start from another value, build a "
-        "fresh env with it before wrapping"
+        f"ns_env.unwrapped.set_params({field}=...) (for the next step on); to start from "
+        "another value, build a fresh env with it before wrapping"
     )
 
 

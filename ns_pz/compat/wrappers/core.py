@@ -267,8 +267,12 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         return TUNABLE_PARAMS[self.binding.env_class]
 
     def get_params(self) -> dict[str, Any]:
-        """The parameters in force now, under NS-Gym's names (vectors as lists)."""
-        theta = self.process.theta
+        """The parameters of the last transition (θ_0 before one), under NS-Gym's names.
+
+        Vectors are lists. Nature has already chosen the θ of the coming transition when a step
+        returns; like NS-Gym, this shows the one the last step ran under.
+        """
+        theta = self.process.last_theta
         return {name: _plain(getattr(theta, native)) for name, native in self.binding.names.items()}
 
     def ground_truth(self) -> GroundTruth:
@@ -290,7 +294,7 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         if not process.started:
             raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
         current = self.is_sim_env or self.delta_change_notification
-        return self._sim_copy(process.theta if current else process.theta0)
+        return self._sim_copy(process.last_theta if current else process.theta0)
 
     def _sim_copy(self, theta: Params) -> NSWrapper:
         twin = copy.copy(self)
@@ -301,7 +305,7 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
     def __deepcopy__(self, memo: dict[int, Any]) -> NSWrapper:
         """A sim env with the current parameters (as NS-Gym's); before reset, a plain copy."""
         if self.process.started:
-            return self._sim_copy(self.process.theta)
+            return self._sim_copy(self.process.last_theta)
         twin = copy.copy(self)
         twin.env = copy.deepcopy(self.core, memo)
         return twin

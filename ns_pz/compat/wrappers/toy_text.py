@@ -93,7 +93,7 @@ class _GridWrapper(NSWrapper):
     @property
     def P(self) -> Table:  # noqa: N802 - NS-Gym's name
         """The transition table ``P[s][a] = [(prob, next_state, reward, terminated), ...]`` now."""
-        return transition_table(self.core.family, self.process.theta)
+        return transition_table(self.core.family, self.process.last_theta)
 
     def step(  # type: ignore[override]
         self, action: Any
