@@ -53,7 +53,8 @@ Differences from NS-Gym (each one a defect there, or a choice ns_pz makes everyw
 10. The wrappers pass ``gymnasium.utils.env_checker.check_env``; the Bridge draws its slips from
     its own seeded generator (NS-Gym's uses the global numpy generator).
 11. The env you wrap is read (class, map, constants, time limit), not stepped: the dynamics are
-    ns_pz's families, and ``wrapper.unwrapped`` is the ns_pz env. As in NS-Gym, reads of the
+    ns_pz's families, and ``wrapper.unwrapped`` is the ns_pz env (a ``CompatCore``, not
+    ``env.unwrapped`` itself as in NS-Gym). As in NS-Gym, reads of the
     parameters show the θ in force, on ``env.unwrapped`` and ``wrapper.unwrapped`` alike
     (``masspole``, ``total_mass``, ``LINK_LENGTH_1``, ``m``, ``force``, FrozenLake's and
     CliffWalking's table ``P``, the Bridge's ``P``; the grid wrappers' ``transition_prob`` and
