@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import copy
 import math
+import pickle
+import re
 import textwrap
 import warnings
 
@@ -20,6 +22,7 @@ import ns_pz.compat
 from ns_pz import ResetNeeded
 from ns_pz.compat import base, schedulers, wrappers
 from ns_pz.compat import update_functions as uf
+from ns_pz.compat.families import CLASSIC_CONTROL
 from ns_pz.compat.schedulers import (
     BurstScheduler,
     ContinuousScheduler,
@@ -100,7 +103,11 @@ def test_paper_listing_runs_unchanged_but_for_the_package_name():
     planning_env = namespace["planning_env"]
     assert set(obs) == {"state", "env_change", "delta_change", "relative_time"}
     assert obs["env_change"] == {"masspole": 0, "gravity": 0}
-    assert obs["relative_time"] == 0 and info == {}
+    assert obs["relative_time"] == 0
+    assert info == {
+        "Ground Truth Env Change": {"masspole": 0, "gravity": 0},
+        "Ground Truth Delta Change": {"masspole": 0, "gravity": 0},
+    }
     assert isinstance(planning_env, NSClassicControlWrapper) and planning_env.is_sim_env
     gravity = [ns_env.get_params()["gravity"]]
     for step in range(1, 5):
@@ -358,18 +365,35 @@ def test_freeze_hides_notifications_but_parameters_keep_changing():
     assert env.step(0)[0]["env_change"] == {"masspole": 1}
 
 
-def test_ground_truth_is_opt_in():
-    """D8: info is empty by default; ground_truth_info=True adds NS-Gym's two keys."""
+def test_ground_truth_info_has_nsgym_keys_and_types():
+    """The info dict holds NS-Gym's two ground-truth keys, unmasked (issue 9, item 10).
+
+    NS-Gym 1.0.12 (FrozenLake, DistributionDecrementUpdate(ContinuousScheduler(), k=0.1),
+    basic notification) gives at reset ``{"Ground Truth Env Change": {"P": 0},
+    "Ground Truth Delta Change": {"P": 0}}`` (two ints) and after a step ``{"P": 1}`` (int) and
+    a float size (ns_pz's is the total variation 0.1, NS-Gym's W1 over positions 0.15), plus
+    ``"transition_prob"``. ``ground_truth_info=False`` leaves the two keys out.
+    """
     tunable = {"P": DistributionDecrementUpdate(ContinuousScheduler(), k=0.1)}
-    lake = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable)
-    lake.reset(seed=0)
+    lake = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable, change_notification=True)
+    _, info = lake.reset(seed=0)
+    assert info == {wrappers.GROUND_TRUTH_CHANGE: {"P": 0}, wrappers.GROUND_TRUTH_DELTA: {"P": 0}}
+    assert [type(v["P"]) for v in info.values()] == [int, int]
     obs, _, _, _, info = lake.step(2)
-    assert info == {} and obs["env_change"] == {"P": 0}
-    lake = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable, ground_truth_info=True)
-    lake.reset(seed=0)
-    info = lake.step(2)[4]
-    assert info[wrappers.GROUND_TRUTH_CHANGE] == {"P": 1}
+    assert info[wrappers.GROUND_TRUTH_CHANGE] == {"P": 1} == obs["env_change"]
+    assert type(info[wrappers.GROUND_TRUTH_CHANGE]["P"]) is int
+    assert type(info[wrappers.GROUND_TRUTH_DELTA]["P"]) is float
     assert info[wrappers.GROUND_TRUTH_DELTA]["P"] == pytest.approx(0.1)
+    assert obs["delta_change"] == {"P": 0.0}  # masked: no delta notification, truth unmasked
+    assert info["transition_prob"] == pytest.approx([0.9, 0.05, 0.05])
+    quiet = NSFrozenLakeWrapper(gym.make("FrozenLake-v1"), tunable, ground_truth_info=False)
+    assert quiet.reset(seed=0)[1] == {}
+    assert set(quiet.step(2)[4]) == {"transition_prob"}
+    cart = cartpole({"masspole": IncrementUpdate(ContinuousScheduler(), k=0.1)})
+    cart.reset(seed=0)
+    info = cart.step(0)[4]
+    assert info[wrappers.GROUND_TRUTH_DELTA]["masspole"] == pytest.approx(0.1)
+    assert info[wrappers.GROUND_TRUTH_CHANGE] == {"masspole": 1}
 
 
 def theta_path(env, seed, steps=15):
@@ -700,7 +724,7 @@ def test_other_classic_control_envs(env_id, module, param):
     """Each NS-Gym name maps to a θ field, θ_0 is read from the env, a schedule changes θ."""
     pytest.importorskip(module)
     env = gym.make(env_id)
-    binding = wrappers.CLASSIC_CONTROL[type(env.unwrapped).__name__]
+    binding = CLASSIC_CONTROL[type(env.unwrapped).__name__]
     params_cls = binding.family_class().params_cls
     assert set(binding.names.values()) <= set(params_cls.names())
     wrapped = NSClassicControlWrapper(
@@ -751,3 +775,349 @@ def test_cartpole_steps_equal_gymnasium_with_the_change_applied_first():
         obs, _, terminated, _, _ = env.step(action)
         raw_obs, _, raw_terminated, _, _ = raw.step(action)
         assert np.allclose(obs["state"], raw_obs, atol=1e-6) and terminated == raw_terminated
+
+
+class OwnGeneratorScheduler(RandomScheduler):
+    """A user subclass with its own rule (even steps only) and its own generator."""
+
+    def __init__(self, probability, seed):
+        super().__init__(probability)
+        self.my_rng = np.random.default_rng(seed)
+
+    def _check(self, t):
+        return t % 2 == 0 and bool(self.my_rng.random() < self.probability)
+
+
+class OwnGeneratorBase(base.Scheduler):
+    """The same rule on NS-Gym's abstract Scheduler."""
+
+    def __init__(self, probability, seed):
+        super().__init__()
+        self.probability = probability
+        self.my_rng = np.random.default_rng(seed)
+
+    _check = OwnGeneratorScheduler._check
+
+
+def firing_steps(env, seed, steps=30):
+    """Steps at which the wrapper's masspole changed in one episode."""
+    env.reset(seed=seed)
+    changed = []
+    for t in range(steps):
+        obs, _, terminated, truncated, _ = env.step(t % 2)
+        if obs["env_change"]["masspole"]:
+            changed.append(t)
+        if terminated or truncated:
+            break
+    return changed
+
+
+@pytest.mark.parametrize("scheduler_cls", [OwnGeneratorScheduler, OwnGeneratorBase])
+def test_a_scheduler_subclass_with_its_own_generator_follows_the_reset_seed(scheduler_cls):
+    """Its rule runs and its generator is reseeded from reset(seed=...) (issue 9, item 12)."""
+    env = cartpole(
+        {"masspole": IncrementUpdate(scheduler_cls(0.5, seed=1), k=0.01)},
+        change_notification=True,
+    )
+    first = firing_steps(env, 3)
+    assert first and all(t % 2 == 0 for t in first)
+    assert first == firing_steps(env, 3)
+    assert first != firing_steps(env, 4)
+    env.reset(seed=3)
+    assert firing_steps(env, None) != firing_steps(env, None)
+
+
+# -- issue 9: NS-Gym code that reads parameters off the env --------------------------------------
+READS = [
+    # NS-Gym 1.0.12, IncrementUpdate(PeriodicScheduler(2), k) on the parameter: read before the
+    # wrapper's reset, after reset(seed=0), after each of 4 steps, after a second reset.
+    ("CartPole-v1", "gravity", 0.5, [9.8, 9.8, 10.3, 10.3, 10.8, 10.8, 9.8]),
+    ("CartPole-v1", "force_mag", 0.5, [10.0, 10.0, 10.5, 10.5, 11.0, 11.0, 10.0]),
+    ("Pendulum-v1", "m", 0.5, [1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 1.0]),
+    ("Acrobot-v1", "LINK_LENGTH_1", 0.5, [1.0, 1.0, 1.5, 1.5, 2.0, 2.0, 1.0]),
+    ("MountainCar-v0", "force", 0.0005, [0.001, 0.001, 0.0015, 0.0015, 0.002, 0.002, 0.001]),
+]
+
+
+@pytest.mark.parametrize(("env_id", "name", "k", "nsgym"), READS)
+def test_parameter_reads_show_the_theta_of_the_last_transition(env_id, name, k, nsgym):
+    """env.unwrapped.X and ns_env.unwrapped.X show θ as NS-Gym's do (issue 9, item 9).
+
+    Between steps that is the θ the last transition used: NS-Gym sets a change on the env just
+    before the transition it affects, and reads after the step see it.
+    """
+    env = gym.make(env_id)
+    ns_env = NSClassicControlWrapper(env, {name: IncrementUpdate(PeriodicScheduler(2), k=k)})
+    reads = [getattr(env.unwrapped, name)]
+    ns_env.reset(seed=0)
+    reads.append(getattr(env.unwrapped, name))
+    for _ in range(4):
+        ns_env.step(ns_env.action_space.sample())
+        assert getattr(ns_env.unwrapped, name) == getattr(env.unwrapped, name)
+        reads.append(getattr(env.unwrapped, name))
+    ns_env.reset()
+    reads.append(getattr(ns_env.unwrapped, name))
+    assert reads == pytest.approx(nsgym)
+
+
+def test_cartpole_reads_include_the_derived_quantities():
+    """NS-Gym keeps total_mass and polemass_length in step with masspole; so do the views.
+
+    NS-Gym 1.0.12, IncrementUpdate(ContinuousScheduler(), k=0.1) on masspole, after steps 1-3:
+    (masspole, total_mass, polemass_length) = (0.2, 1.2, 0.1), (0.3, 1.3, 0.15), (0.4, 1.4, 0.2).
+    """
+    env = gym.make("CartPole-v1")
+    ns_env = NSClassicControlWrapper(env, {"masspole": IncrementUpdate(ContinuousScheduler(), 0.1)})
+    ns_env.reset(seed=0)
+    for expected in [(0.2, 1.2, 0.1), (0.3, 1.3, 0.15), (0.4, 1.4, 0.2)]:
+        ns_env.step(0)
+        for owner in (env.unwrapped, ns_env.unwrapped):
+            read = (owner.masspole, owner.total_mass, owner.polemass_length)
+            assert read == pytest.approx(expected)
+    # A planning env reads its own θ: the initial one here (no delta notification), as NS-Gym.
+    planning = ns_env.get_planning_env()
+    assert planning.unwrapped.masspole == 0.1 and env.unwrapped.masspole == pytest.approx(0.4)
+    planning.step(0)
+    assert planning.unwrapped.masspole == 0.1 and env.unwrapped.masspole == pytest.approx(0.4)
+
+
+def test_stepping_the_wrapped_env_by_hand_uses_the_current_theta():
+    """The env passed is the one that changes, as in NS-Gym: its own step sees the new θ."""
+    env = gym.make("CartPole-v1")
+    ns_env = NSClassicControlWrapper(env, {"masspole": IncrementUpdate(ContinuousScheduler(), 0.5)})
+    ns_env.reset(seed=0)
+    ns_env.step(0)
+    reference = gym.make("CartPole-v1").unwrapped
+    reference.masspole = 0.6
+    reference.total_mass, reference.polemass_length = 1.6, 0.3
+    for raw in (env.unwrapped, reference):
+        raw.reset(seed=5)
+    assert np.array_equal(env.unwrapped.step(1)[0], reference.step(1)[0])
+
+
+def test_a_random_walk_matches_nsgym_and_its_own_seed():
+    """RandomWalk on gravity: NS-Gym's numbers for reset(seed=1); seed= alone reproduces a run.
+
+    NS-Gym 1.0.12 reseeds a wrapper's only update function from SeedSequence(1)'s first child,
+    which is the generator ns_pz's nature draws from, so after reset(seed=1) both read gravity
+    9.159681471601335, 9.552454187001999, 9.159301803295117 after steps 1-3. Without a reset
+    seed, NS-Gym's walk follows RandomWalk's own seed=: the same in every run, different in
+    every episode.
+    """
+
+    def walks(env, seeds):
+        out = []
+        for seed in seeds:
+            env.reset(seed=seed)
+            out.append([env.step(0)[0] is not None and env.unwrapped.gravity for _ in range(3)])
+        return out
+
+    def build():
+        return NSClassicControlWrapper(
+            gym.make("CartPole-v1"), {"gravity": RandomWalk(ContinuousScheduler(), seed=5)}
+        )
+
+    assert walks(build(), [1]) == [[9.159681471601335, 9.552454187001999, 9.159301803295117]]
+    unseeded = walks(build(), [None, None, None])
+    assert unseeded == walks(build(), [None, None, None])
+    assert unseeded[0] != unseeded[1] != unseeded[2]
+    assert (
+        unseeded[0]
+        != walks(
+            NSClassicControlWrapper(
+                gym.make("CartPole-v1"), {"gravity": RandomWalk(ContinuousScheduler(), seed=6)}
+            ),
+            [None],
+        )[0]
+    )
+
+
+@pytest.mark.parametrize(
+    ("env_id", "name", "native"),
+    [("CartPole-v1", "masspole", "masspole"), ("Pendulum-v1", "m", "mass")],
+)
+def test_writes_that_bypass_nature_are_refused_with_the_way_to_do_it(env_id, name, native):
+    """env.unwrapped.X = v and ns_env.unwrapped.X = v raise, pointing to set_params."""
+    env = gym.make(env_id)
+    ns_env = NSClassicControlWrapper(env, {})
+    for owner in (env.unwrapped, ns_env.unwrapped):
+        with pytest.raises(AttributeError, match=rf"{name} is read-only.*set_params\({native}="):
+            setattr(owner, name, 0.5)
+    ns_env.reset(seed=0)
+    ns_env.unwrapped.set_params(**{native: 0.5})
+    ns_env.step(ns_env.action_space.sample())  # reads show θ once a transition has used it
+    assert getattr(env.unwrapped, name) == 0.5
+    assert isinstance(copy.deepcopy(env.unwrapped), type(env.unwrapped).__mro__[1])
+    snapshot = copy.deepcopy(env.unwrapped)
+    ns_env.reset(seed=0)
+    assert getattr(snapshot, name) == 0.5 and getattr(env.unwrapped, name) != 0.5
+    setattr(snapshot, name, 0.7)  # a copy is a plain env again
+    ns_env.unwrapped.set_params(**{native: 0.5})
+    ns_env.step(ns_env.action_space.sample())
+    revived = pickle.loads(pickle.dumps(ns_env))
+    assert getattr(revived.base_env.unwrapped, name) == 0.5
+    revived.unwrapped.set_params(**{native: 0.6})
+    revived.step(revived.action_space.sample())
+    assert getattr(revived.base_env.unwrapped, name) == 0.6 and getattr(env.unwrapped, name) == 0.5
+
+
+def test_grid_reads_transition_prob_and_tables():
+    """transition_prob and the tables P[s][a] follow the slip, as NS-Gym's.
+
+    NS-Gym 1.0.12, DistributionDecrementUpdate(PeriodicScheduler(2), k=0.25) from [1, 0, 0, 0],
+    CliffWalking-v1, after steps 1-3: transition_prob [0.75, 1/12, 1/12, 1/12] twice, then
+    [0.5, 1/6, 1/6, 1/6]; env.unwrapped.P[5][1] (and ns_env.unwrapped.P, ns_env.P) then
+    [(0.75, 6, -1, False), (1/12, 17, -1, False), (1/12, 5, -1, False), (1/12, 4, -1, False)].
+    """
+    env = gym.make("CliffWalking-v1")
+    ns_env = NSCliffWalkingWrapper(
+        env,
+        {"P": DistributionDecrementUpdate(PeriodicScheduler(2), k=0.25)},
+        initial_prob_dist=[1.0, 0.0, 0.0, 0.0],
+    )
+    ns_env.reset(seed=0)
+    assert env.unwrapped.P[5][1][0] == (1.0, 6, -1.0, False)
+    slips = []
+    for _ in range(3):
+        ns_env.step(1)
+        slips.append(ns_env.transition_prob)
+        assert env.unwrapped.P[5][1] == ns_env.unwrapped.P[5][1] == ns_env.P[5][1]
+    expected = [[0.75] + [1 / 12] * 3] * 2 + [[0.5] + [1 / 6] * 3]
+    assert np.allclose(slips, expected, rtol=0, atol=1e-12)
+    entries = env.unwrapped.P[5][1]
+    assert [entry[1:] for entry in entries] == [
+        (6, -1, False),
+        (17, -1, False),
+        (5, -1, False),
+        (4, -1, False),
+    ]
+    assert np.allclose([entry[0] for entry in entries], [0.5, 1 / 6, 1 / 6, 1 / 6], atol=1e-12)
+    lake = gym.make("FrozenLake-v1")
+    NSFrozenLakeWrapper(lake, {}).reset(seed=0)
+    assert lake.unwrapped.P[5][1] == ((1.0, 5, 0.0, True),)  # a hole: NS-Gym's single entry
+    with pytest.raises(AttributeError, match=r"P is read-only.*set_params\(slip="):
+        lake.unwrapped.P = {}
+
+
+def test_nsgym_module_paths_import():
+    """NS-Gym's submodules exist under ns_pz.compat with its names; unsupported ones say so."""
+    import importlib
+
+    expected = {
+        "wrappers.classic_control": ["NSClassicControlWrapper"],
+        "wrappers.toy_text": ["NSFrozenLakeWrapper", "NSCliffWalkingWrapper", "NSBridgeWrapper"],
+        "envs.Bridge": ["Bridge"],
+        "envs": ["Bridge"],
+        "base": ["NSWrapper", "Scheduler", "UpdateFn", "UpdateDistributionFn", "Reward"],
+        "update_functions.single_param": ["IncrementUpdate", "RandomWalk"],
+        "update_functions.distribution": ["DistributionDecrementUpdate"],
+        "schedulers": ["ContinuousScheduler", "RandomScheduler"],
+    }
+    for module, names in expected.items():
+        loaded = importlib.import_module(f"ns_pz.compat.{module}")
+        for name in names:
+            assert getattr(loaded, name) is not None
+    from ns_pz.compat.base import NSWrapper
+
+    assert NSWrapper is wrappers.NSWrapper
+    for module in ("mujoco_env", "box_2d", "purtsuit_evasion_wrapper"):
+        with pytest.raises(ImportError, match="ns_pz has no .* family"):
+            importlib.import_module(f"ns_pz.compat.wrappers.{module}")
+    with pytest.raises(ImportError, match="no MujocoWrapper"):
+        from ns_pz.compat.wrappers import MujocoWrapper  # noqa: F401
+
+
+# -- issue 9, item 11: the settings of the env you wrap ------------------------------------------
+def tweak(env_id, name, value, **make_kwargs):
+    """gym.make(env_id) with one attribute of its core set by hand."""
+    env = gym.make(env_id, **make_kwargs)
+    setattr(env.unwrapped, name, value)
+    return env
+
+
+REFUSED = [
+    (lambda: gym.make("CartPole-v1", sutton_barto_reward=True), "sutton_barto_reward=True"),
+    (lambda: tweak("CartPole-v1", "x_threshold", 3.0), "x_threshold=3.0"),
+    (lambda: tweak("CartPole-v1", "theta_threshold_radians", 0.5), "theta_threshold_radians"),
+    (lambda: tweak("MountainCar-v0", "max_speed", 0.1), "max_speed=0.1"),
+    (lambda: tweak("Pendulum-v1", "max_torque", 3.0), "max_torque=3.0"),
+    (lambda: tweak("Acrobot-v1", "book_or_nips", "nips"), "book_or_nips='nips'"),
+    (lambda: tweak("Acrobot-v1", "MAX_VEL_1", 1.0), "MAX_VEL_1=1.0"),
+    (lambda: gym.make("CartPole-v1", render_mode="rgb_array"), "render_mode='rgb_array'"),
+    (
+        lambda: gym.wrappers.TransformReward(gym.make("CartPole-v1"), lambda r: 2 * r),
+        "wrapped in TransformReward",
+    ),
+    (
+        lambda: gym.wrappers.RecordEpisodeStatistics(gym.make("CartPole-v1")),
+        "wrapped in RecordEpisodeStatistics",
+    ),
+]
+
+
+@pytest.mark.parametrize(("build", "match"), REFUSED)
+def test_settings_the_wrapper_cannot_honour_are_refused(build, match):
+    """Never a different task than the one built: the setting is named (issue 9, item 11)."""
+    with pytest.raises(ValueError, match=re.escape(match) if "(" in match else match):
+        NSClassicControlWrapper(build(), {})
+
+
+def test_settings_the_wrapper_honours():
+    """goal_velocity, Pendulum's g, torque noise and FrozenLake's reward_schedule reach θ."""
+    car = NSClassicControlWrapper(gym.make("MountainCar-v0", goal_velocity=0.02), {})
+    assert car.core.family.goal_velocity == 0.02
+    pendulum = NSClassicControlWrapper(gym.make("Pendulum-v1", g=5.0), {})
+    assert pendulum.get_params()["g"] == 5.0
+    acrobot = NSClassicControlWrapper(tweak("Acrobot-v1", "torque_noise_max", 0.1), {})
+    assert acrobot.core.family.torque_noise_max == 0.1
+    lake = NSFrozenLakeWrapper(gym.make("FrozenLake-v1", reward_schedule=(10, -1, 0)), {})
+    assert lake.P[14][2] == ((1.0, 15, 10.0, True), (0.0, 10, 0.0, False), (0.0, 14, 0.0, False))
+    assert lake.P[4][1][0] == (1.0, 8, 0.0, False) and lake.P[0][1][0][2] == 0.0
+    assert lake.P[1][1][0] == (1.0, 5, -1.0, True)
+    modified = NSFrozenLakeWrapper(
+        gym.make("FrozenLake-v1", reward_schedule=(10, -1, 0)), {}, modified_rewards={"G": 2}
+    )
+    assert modified.P[14][2][0] == (1.0, 15, 2.0, True) and modified.P[1][1][0][2] == -1.0
+    # As in NS-Gym, the slip comes from initial_prob_dist, not from is_slippery.
+    slippery = NSFrozenLakeWrapper(gym.make("FrozenLake-v1", is_slippery=True), {})
+    assert slippery.transition_prob == [1.0, 0.0, 0.0]
+
+
+# -- issue 9, item 12: the Bridge's slip attributes --------------------------------------------
+def test_bridge_slip_attributes_take_effect():
+    """e.P = [...] changes the Bridge's dynamics; a bad vector raises (NS-Gym's is ignored)."""
+    first_moves = {}
+    for slip in ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]):
+        bridge = gym.make("ns_pz_compat/Bridge-v0")
+        bridge.unwrapped.P = slip
+        bridge.reset(seed=0)
+        first_moves[tuple(slip)] = bridge.step(0)[0]  # LEFT; slipping turns it into DOWN
+    assert first_moves == {(1.0, 0.0, 0.0): 2 * 8 + 3, (0.0, 1.0, 0.0): 3 * 8 + 4}
+    bridge = gym.make("ns_pz_compat/Bridge-v0").unwrapped
+    with pytest.raises(ValueError, match=r"P=\[0.5, 0.2, 0.2\] sums to 0.9"):
+        bridge.P = [0.5, 0.2, 0.2]
+    with pytest.raises(AttributeError, match="split_probs=False.*not P_left"):
+        bridge.P_left = [1.0, 0.0, 0.0]
+    bridge.P = [0.4, 0.3, 0.3]
+    assert bridge.transition_matrix[20][0][0] == (0.4, 19, 0.0, False)
+    wrapped = NSBridgeWrapper(bridge, {})
+    assert wrapped.get_params() == {"P": [0.4, 0.3, 0.3]}  # the env's own P is θ_0
+    with pytest.raises(AttributeError, match="read-only"):
+        bridge.P = [1.0, 0.0, 0.0]
+
+
+def test_bridge_split_mode_follows_the_tunable_names_as_in_nsgym():
+    """{"P_left": fn} on a plain Bridge switches it to split mode; (left, right) start apart."""
+    bridge = gym.make("ns_pz_compat/Bridge-v0")
+    wrapped = NSBridgeWrapper(
+        bridge,
+        {"P_left": DistributionDecrementUpdate(ContinuousScheduler(), k=0.1)},
+        initial_prob_dist=([1.0, 0.0, 0.0], [0.5, 0.25, 0.25]),
+    )
+    assert bridge.unwrapped.split_probs
+    wrapped.reset(seed=0)
+    wrapped.step(3)
+    params = wrapped.get_params()
+    assert params["P_left"] == pytest.approx([0.9, 0.05, 0.05])
+    assert params["P_right"] == [0.5, 0.25, 0.25]
+    assert bridge.unwrapped.P_right == [0.5, 0.25, 0.25]

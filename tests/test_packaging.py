@@ -27,6 +27,7 @@ def test_envs_and_agents_install_under_ns_pz_only():
     assert not [f for f in files if f.startswith(("envs/", "agents/"))]
     assert "ns_pz/envs/registry.py" in files and "ns_pz/agents/base.py" in files
     assert "ns_pz/compat/update_functions/distribution.py" in files
+    assert "ns_pz/compat/wrappers/toy_text.py" in files and "ns_pz/compat/envs/Bridge.py" in files
     assert ns_pz.envs.__name__ == "ns_pz.envs" and ns_pz.agents.__name__ == "ns_pz.agents"
 
 

@@ -8,11 +8,13 @@ native ones. Inside a wrapper only the native rule runs, drawing from the wrappe
 generator; the compat object itself is never mutated by an episode.
 
 Random schedulers and update functions take NS-Gym's ``seed=``; it seeds their *standalone*
-calls (``sched(t)``, ``fn(param, t)``), which draw from ``self.rng``. Subclasses written for
-NS-Gym work too. An update function overriding ``_update`` runs in a wrapper as a per-episode
-deep copy, whose ``rng`` (if it has one) is reseeded from the wrapper's generator at the
-episode's first firing. A scheduler overriding ``_check`` is called as it is: randomness inside
-it is its own (use a native :class:`ns_pz.nature.CustomScheduler` to draw from the wrapper's).
+calls (``sched(t)``, ``fn(param, t)``), which draw from ``self.rng``, and a wrapper whose first
+``reset`` has no seed. Subclasses written for NS-Gym work too: an update function overriding
+``_update``, or one whose scheduler overrides ``_check``, runs in a wrapper as a per-episode deep
+copy called as NS-Gym calls it (``fn(param, t)`` at every step), and every numpy generator that
+copy or its scheduler holds as an attribute (``rng`` or any other name) is reseeded from the
+wrapper's generator at the episode's first step. So ``reset(seed=...)`` reproduces them, and
+episodes without a seed differ. Randomness a subclass creates afresh at each call is its own.
 """
 
 from __future__ import annotations
@@ -53,6 +55,34 @@ def check_time(name: str, t: object) -> int | float:
     return int(number) if number.is_integer() else number
 
 
+def seeded_generator(owner: object, seed: object) -> np.random.Generator:
+    """``numpy.random.default_rng(seed)`` for ``owner``'s standalone calls, the seed recorded.
+
+    The seed is kept as ``owner._seed``, so a wrapper can seed itself from it (see
+    :func:`explicit_seeds`).
+
+    Raises:
+        TypeError: ``seed`` is neither ``None`` nor an int.
+        ValueError: ``seed`` is negative.
+    """
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))):
+        raise TypeError(f"seed={seed!r} must be an int or None")
+    if seed is not None and seed < 0:
+        raise ValueError(f"seed={seed!r} must be >= 0")
+    owner._seed = None if seed is None else int(seed)  # type: ignore[attr-defined]
+    return np.random.default_rng(seed)
+
+
+def explicit_seeds(fn: object) -> list[int]:
+    """The ``seed=`` values given to ``fn``, its scheduler and the update it wraps, in order."""
+    parts = [fn, getattr(fn, "scheduler", None)]
+    inner = getattr(fn, "inner", None)
+    if inner is not None:
+        parts += [inner, getattr(inner, "scheduler", None)]
+    seeds = [getattr(part, "_seed", None) for part in parts]
+    return [seed for seed in seeds if seed is not None]
+
+
 class Scheduler(ABC):
     """When a parameter changes: ``sched(t)`` is True at the steps it fires.
 
@@ -82,8 +112,15 @@ class Scheduler(ABC):
         """Whether to fire at ``t``, a step inside the window."""
 
     def native(self) -> native_schedulers.Scheduler:
-        """The native scheduler with this one's window and rule (what a wrapper runs)."""
+        """The native scheduler with this one's window and rule.
+
+        A wrapper runs it when :meth:`runs_natively`; otherwise it runs a copy of this object.
+        """
         return _Windowed(self._native_rule(), self.start, self.end)
+
+    def runs_natively(self) -> bool:
+        """Whether :meth:`native` computes exactly what ``_check`` does (no user override)."""
+        return False
 
     def _native_rule(self) -> native_schedulers.Scheduler:
         """The rule without the window; a subclass from NS-Gym runs through its ``_check``."""
@@ -196,6 +233,7 @@ class UpdateFn(_Update, ABC):
         if (
             isinstance(self._rule, native_updates.UpdateFn)
             and type(self)._update is UpdateFn._update
+            and self.scheduler.runs_natively()
         ):
             return self._rule
         return _SubclassScalarRule(self)
@@ -233,42 +271,60 @@ class UpdateDistributionFn(_Update, ABC):
         if (
             isinstance(rule, native_updates.DistributionUpdateFn)
             and type(self)._update is UpdateDistributionFn._update
+            and self.scheduler.runs_natively()
         ):
             return rule
         return _SubclassDistributionRule(self)
 
 
 class _SubclassRuleMixin:
-    """Runs an NS-Gym-style subclass (its own ``_update``) as a stateful native rule.
+    """Runs an NS-Gym-style object (a user subclass, or a user scheduler) as a native rule.
 
-    Its episode memory is a deep copy of the user's object, with ``rng`` reseeded from nature's
-    generator at the episode's first firing, so episodes neither share state nor replay.
+    The rule fires at every step and calls a per-episode deep copy of the object as NS-Gym
+    does, ``copy(param, t)``; a step where the copy's scheduler does not fire proposes the
+    value unchanged, which nature records as no change. The copy is the rule's episode memory,
+    so episodes and planning copies (which copy nature's memory) never share its state. At the
+    episode's first step every numpy generator held by the copy or its scheduler is reseeded
+    from nature's generator.
     """
 
     stateful = True
 
     def __init__(self, fn: _Update) -> None:
-        super().__init__(fn.scheduler.native())  # type: ignore[call-arg]
+        super().__init__(native_schedulers.ContinuousScheduler(start=0))  # type: ignore[call-arg]
         self.fn = fn
 
     def initial_memory(self) -> list[Any]:
-        """``[copy of the user's object, whether its rng has been seeded]``."""
+        """``[copy of the user's object, whether its generators have been reseeded]``."""
         return [copy.deepcopy(self.fn), False]
 
     def _apply(self, value: Any, t: int, rng: np.random.Generator, memory: list[Any]) -> Any:
         fn = memory[0]
         if not memory[1]:
-            if hasattr(fn, "rng"):
-                fn.rng = np.random.default_rng(int(rng.integers(2**63)))
+            reseed_generators(fn, rng)
+            reseed_generators(fn.scheduler, rng)
             memory[1] = True
-        return fn._update(value, t)
+        return fn(value, t)[0]
+
+
+def reseed_generators(obj: object, rng: np.random.Generator) -> None:
+    """Replace every numpy generator among ``obj``'s attributes by one seeded from ``rng``.
+
+    Attributes are visited in definition order, so the result is a function of ``rng``'s state.
+    ``numpy.random.RandomState`` attributes are reseeded too.
+    """
+    for name, value in list(vars(obj).items()):
+        if isinstance(value, np.random.Generator):
+            setattr(obj, name, np.random.default_rng(int(rng.integers(2**63))))
+        elif isinstance(value, np.random.RandomState):
+            setattr(obj, name, np.random.RandomState(int(rng.integers(2**32))))
 
 
 class _SubclassScalarRule(_SubclassRuleMixin, native_updates.UpdateFn):
     def update(  # type: ignore[override]
         self, value: float, t: int, n: int, rng: np.random.Generator, memory: list[Any]
     ) -> float:
-        """The subclass's ``_update(value, t)``."""
+        """The copy's ``fn(value, t)`` value."""
         return check_real(
             f"{type(self.fn).__name__}._update result", self._apply(value, t, rng, memory)
         )
@@ -278,7 +334,7 @@ class _SubclassDistributionRule(_SubclassRuleMixin, native_updates.DistributionU
     def update(  # type: ignore[override]
         self, value: tuple[float, ...], t: int, n: int, rng: np.random.Generator, memory: list[Any]
     ) -> tuple[float, ...]:
-        """The subclass's ``_update(list(value), t)``, validated."""
+        """The copy's ``fn(list(value), t)`` value, validated."""
         result = self._apply(list(value), t, rng, memory)
         return check_distribution(f"{type(self.fn).__name__}._update result", result)
 
@@ -325,3 +381,12 @@ class _TunableParams(Mapping[str, dict[str, Any]]):
 
 TUNABLE_PARAMS = _TunableParams()
 """Environment class name -> {NS-Gym parameter name: default value}."""
+
+
+def __getattr__(name: str) -> Any:
+    """``NSWrapper``, which NS-Gym keeps in ``ns_gym.base`` (loaded on first use)."""
+    if name == "NSWrapper":
+        from ns_pz.compat.wrappers.core import NSWrapper
+
+        return NSWrapper
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -28,6 +28,15 @@ class Binding:
         family: The family class name.
         names: NS-Gym parameter name -> ns_pz θ field name.
         gym_id: The Gymnasium id NS-Gym builds this env with.
+        derived: θ properties NS-Gym's env also holds as attributes (CartPole's
+            ``total_mass``), readable like the parameters.
+        table_attribute: The attribute holding the transition table ``P[s][a]`` (FrozenLake's
+            ``P``, the Bridge's ``transition_matrix``), if any; it takes precedence over a
+            parameter of the same name, which is then read as the wrapper's ``transition_prob``.
+        adopted: Attributes of the env you wrap that become views onto θ (default: the
+            parameters, the derived ones and the table).
+        native_names: ns_pz θ field name -> NS-Gym name.
+        readable: Every attribute an NS-Gym wrapper's ``unwrapped`` shows.
     """
 
     env_class: str
@@ -35,10 +44,19 @@ class Binding:
     family: str
     names: Mapping[str, str]
     gym_id: str
+    derived: tuple[str, ...] = ()
+    table_attribute: str | None = None
+    adopted: tuple[str, ...] = ()
     native_names: Mapping[str, str] = field(init=False)
+    readable: frozenset[str] = field(init=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "native_names", {v: k for k, v in self.names.items()})
+        table = () if self.table_attribute is None else (self.table_attribute,)
+        readable = frozenset((*self.names, *self.derived, *table))
+        object.__setattr__(self, "readable", readable)
+        if not self.adopted:
+            object.__setattr__(self, "adopted", tuple(sorted(readable)))
 
     def family_class(self) -> type[EnvFamily]:
         """The family class (its module imported now).
@@ -79,6 +97,7 @@ CLASSIC_CONTROL: dict[str, Binding] = {
             "CartPoleFamily",
             {n: n for n in _CARTPOLE},
             "CartPole-v1",
+            derived=("total_mass", "polemass_length"),
         ),
         Binding(
             "MountainCarEnv",
@@ -107,7 +126,12 @@ CLASSIC_CONTROL: dict[str, Binding] = {
 """NS-Gym's ``SUPPORTED_CLASSIC_CONTROL_ENV_IDS``, by env class name."""
 
 FROZEN_LAKE = Binding(
-    "FrozenLakeEnv", "ns_pz.envs.frozen_lake", "FrozenLakeFamily", {"P": "slip"}, "FrozenLake-v1"
+    "FrozenLakeEnv",
+    "ns_pz.envs.frozen_lake",
+    "FrozenLakeFamily",
+    {"P": "slip"},
+    "FrozenLake-v1",
+    table_attribute="P",
 )
 CLIFF_WALKING = Binding(
     "CliffWalkingEnv",
@@ -115,14 +139,26 @@ CLIFF_WALKING = Binding(
     "CliffWalkingFamily",
     {"P": "slip"},
     "CliffWalking-v1",
+    table_attribute="P",
 )
-BRIDGE = Binding("Bridge", "ns_pz.envs.bridge", "BridgeFamily", {"P": "slip"}, "Bridge-v0")
+# The Bridge is ns_pz.compat's own env: its slip attributes and table derive from its ``theta``.
+BRIDGE = Binding(
+    "Bridge",
+    "ns_pz.envs.bridge",
+    "BridgeFamily",
+    {"P": "slip"},
+    "Bridge-v0",
+    table_attribute="transition_matrix",
+    adopted=("theta",),
+)
 SPLIT_BRIDGE = Binding(
     "Bridge",
     "ns_pz.envs.bridge",
     "SplitBridgeFamily",
     {"P_left": "slip_left", "P_right": "slip_right"},
     "Bridge-v0",
+    table_attribute="transition_matrix",
+    adopted=("theta",),
 )
 
 GRID_DEFAULTS: dict[str, dict[str, list[float]]] = {

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ns_pz.compat.base import Scheduler
+from ns_pz.compat.base import Scheduler, seeded_generator
 from ns_pz.nature import schedulers as native
 
 __all__ = [
@@ -42,6 +42,10 @@ class _NativeBacked(Scheduler):
 
     def _native_rule(self) -> native.Scheduler:
         return self._rule
+
+    def runs_natively(self) -> bool:
+        """True unless a subclass overrides ``_check`` (then a wrapper runs a copy of it)."""
+        return type(self)._check is _NativeBacked._check
 
 
 class ContinuousScheduler(_NativeBacked):
@@ -90,7 +94,7 @@ class RandomScheduler(_NativeBacked):
         super().__init__(start, end)
         self._rule = native.RandomScheduler(probability, start=0)
         self.probability = self._rule.probability
-        self.rng = np.random.default_rng(seed)
+        self.rng = seeded_generator(self, seed)
 
 
 class MemorylessScheduler(_NativeBacked):
@@ -103,7 +107,7 @@ class MemorylessScheduler(_NativeBacked):
         first = int(self.start) if float(self.start).is_integer() else int(self.start) + 1
         self._rule = native.MemorylessScheduler(p, start=first)
         self.p = self._rule.p
-        self.rng = np.random.default_rng(seed)
+        self.rng = seeded_generator(self, seed)
 
 
 class DecayingProbabilityScheduler(_NativeBacked):
@@ -121,7 +125,7 @@ class DecayingProbabilityScheduler(_NativeBacked):
         self._rule = native.DecayingProbabilityScheduler(initial_probability, decay_rate, start=0)
         self.initial_probability = self._rule.initial_probability
         self.decay_rate = self._rule.decay_rate
-        self.rng = np.random.default_rng(seed)
+        self.rng = seeded_generator(self, seed)
 
 
 class BurstScheduler(_NativeBacked):

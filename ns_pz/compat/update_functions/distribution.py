@@ -14,9 +14,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from ns_pz.compat.base import Scheduler, UpdateDistributionFn
-from ns_pz.compat.update_functions._random import seeded
+from ns_pz.compat.base import Scheduler, UpdateDistributionFn, seeded_generator
 from ns_pz.nature import distribution_updates as native
+from ns_pz.nature import updates as native_updates
 
 __all__ = [
     "BudgetBoundedIncrement",
@@ -87,7 +87,7 @@ class RandomCategorical(UpdateDistributionFn):
 
     def __init__(self, scheduler: Scheduler, seed: int | None = None) -> None:
         super().__init__(scheduler)
-        self.rng = seeded(seed)
+        self.rng = seeded_generator(self, seed)
         self._set_rule(native.RandomCategorical(scheduler.native()))
 
 
@@ -160,7 +160,7 @@ class LCBoundedDistributionUpdate(UpdateDistributionFn):
         self.inner = update_fn
         rule = native.LipschitzBoundedDistributionUpdate(scheduler.native(), L, update_fn.native())
         self.L = rule.L
-        self.rng = getattr(update_fn, "rng", None) or seeded(None)
+        self.rng = getattr(update_fn, "rng", None) or seeded_generator(self, None)
         self._set_rule(rule)
 
     def _update(self, param: Any, t: Any) -> Any:
@@ -171,9 +171,14 @@ class LCBoundedDistributionUpdate(UpdateDistributionFn):
         limit = self.L * abs(t - self.prev_time)
         return rule.bounded_update(tuple(param), t, n, self.rng, limit, self._memory)
 
-    def native(self) -> native.LipschitzBoundedDistributionUpdate:
-        """The native rule (``L`` per firing; a wrapper fires it at most once per step)."""
-        return self._rule  # type: ignore[return-value]
+    def native(self) -> native_updates.DistributionUpdateFn:
+        """The native rule (``L`` per firing; a wrapper fires it at most once per step).
+
+        With a user scheduler subclass (its own ``_check``), a copy of this object instead.
+        """
+        if self.scheduler.runs_natively() and self.inner.scheduler.runs_natively():
+            return self._rule  # type: ignore[return-value]
+        return super().native()
 
 
 LCBoundedDistrubutionUpdate = LCBoundedDistributionUpdate

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ns_pz.compat.base import Scheduler, UpdateFn
-from ns_pz.compat.update_functions._random import seeded
+from ns_pz.compat.base import Scheduler, UpdateFn, seeded_generator
 from ns_pz.nature import scalar_updates as native
 
 __all__ = [
@@ -171,7 +170,7 @@ class RandomWalk(UpdateFn):
         super().__init__(scheduler)
         rule = native.RandomWalk(scheduler.native(), mu, sigma)
         self.mu, self.sigma = rule.mu, rule.sigma
-        self.rng = seeded(seed)
+        self.rng = seeded_generator(self, seed)
         self._set_rule(rule)
 
 
@@ -189,7 +188,7 @@ class RandomWalkWithDrift(UpdateFn):
         super().__init__(scheduler)
         rule = native.RandomWalkWithDrift(scheduler.native(), alpha, mu, sigma)
         self.alpha, self.mu, self.sigma = rule.alpha, rule.mu, rule.sigma
-        self.rng = seeded(seed)
+        self.rng = seeded_generator(self, seed)
         self._set_rule(rule)
 
 
@@ -208,7 +207,7 @@ class RandomWalkWithDriftAndTrend(UpdateFn):
         super().__init__(scheduler)
         rule = native.RandomWalkWithDriftAndTrend(scheduler.native(), alpha, mu, sigma, slope)
         self.alpha, self.mu, self.sigma, self.slope = rule.alpha, rule.mu, rule.sigma, rule.slope
-        self.rng = seeded(seed)
+        self.rng = seeded_generator(self, seed)
         self._set_rule(rule)
 
 
@@ -227,7 +226,7 @@ class BoundedRandomWalk(UpdateFn):
         super().__init__(scheduler)
         rule = native.BoundedRandomWalk(scheduler.native(), mu, sigma, lo, hi)
         self.mu, self.sigma, self.lo, self.hi = rule.mu, rule.sigma, rule.lo, rule.hi
-        self.rng = seeded(seed)
+        self.rng = seeded_generator(self, seed)
         self._set_rule(rule)
 
 
@@ -245,5 +244,5 @@ class OrnsteinUhlenbeck(UpdateFn):
         super().__init__(scheduler)
         rule = native.OrnsteinUhlenbeck(scheduler.native(), theta, mu, sigma)
         self.theta, self.mu, self.sigma = rule.theta, rule.mu, rule.sigma
-        self.rng = seeded(seed)
+        self.rng = seeded_generator(self, seed)
         self._set_rule(rule)

@@ -1,10 +1,13 @@
-"""NS-Gym's wrappers (``ns_gym.wrappers``), as thin adapters over the ns_pz core.
+"""NS-Gym's wrapper base class (``ns_gym.base.NSWrapper``), as a thin adapter over the core.
 
 A wrapper takes the Gymnasium env you built (``gymnasium.make("CartPole-v1")``), picks the ns_pz
-family that implements the same dynamics with its parameters as θ, reads θ_0 and the time limit
-from it, and runs an :class:`ns_pz.NSGymEnv` whose nature is the schedule given in
-``tunable_params``. The env you pass is read, never stepped: ``wrapper.env`` (and ``unwrapped``)
-is the ns_pz core env, ``wrapper.base_env`` the one you passed.
+family that implements the same dynamics with its parameters as θ, reads θ_0, the time limit
+and the env's settings from it (refusing any it cannot honour, see :mod:`ns_pz.compat.settings`),
+and runs a :class:`~ns_pz.compat.attributes.CompatCore` (an :class:`ns_pz.NSGymEnv`) whose
+nature is the schedule given in ``tunable_params``. The env you pass is not stepped by the
+wrapper: ``wrapper.env`` and ``wrapper.unwrapped`` are the ns_pz env, ``wrapper.base_env`` the
+one you passed. Its parameter attributes (``env.unwrapped.masspole``, FrozenLake's ``P``)
+become read-only views of the wrapper's θ, as they show the current values in NS-Gym.
 
 Observations have NS-Gym's structure::
 
@@ -14,7 +17,8 @@ Observations have NS-Gym's structure::
 with one entry per tunable parameter, under NS-Gym's names. ``env_change`` is filled when
 ``change_notification`` is on, ``delta_change`` when ``delta_change_notification`` is on too;
 both report the change applied to the transition just made (a scalar's signed difference, a
-slip vector's total-variation distance). ``info`` is empty unless ``ground_truth_info=True``.
+slip vector's total-variation distance). ``info`` holds NS-Gym's ground truth keys, the same
+two dicts unmasked (``ground_truth_info=False`` leaves them out).
 """
 
 from __future__ import annotations
@@ -27,40 +31,24 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ns_pz.compat.base import TUNABLE_PARAMS, Reward, UpdateDistributionFn, UpdateFn
-from ns_pz.compat.families import (
-    BRIDGE,
-    CLASSIC_CONTROL,
-    CLIFF_WALKING,
-    FROZEN_LAKE,
-    SPLIT_BRIDGE,
-    Binding,
-    classic_control_params,
-    env_class_name,
-    time_limit,
-)
-from ns_pz.envs.cliff_walking import CliffWalkingFamily, CliffWalkingParams
-from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
+from ns_pz.compat.attributes import CompatCore, adopt
+from ns_pz.compat.base import TUNABLE_PARAMS, Reward, UpdateDistributionFn, UpdateFn, explicit_seeds
+from ns_pz.compat.families import Binding, env_class_name, time_limit
+from ns_pz.compat.settings import check_base_env
 from ns_pz.errors import ResetNeeded
 from ns_pz.family import EnvFamily
 from ns_pz.nature import ScriptedNature
 from ns_pz.nature import updates as native_updates
 from ns_pz.nature.distribution_updates import total_variation
-from ns_pz.nature.updates import check_distribution, check_real
 from ns_pz.params import SIMPLEX, Params
 from ns_pz.process import GroundTruth, NSProcess
-from ns_pz.views import NSGymEnv
 
-__all__ = [
-    "NSBridgeWrapper",
-    "NSClassicControlWrapper",
-    "NSCliffWalkingWrapper",
-    "NSFrozenLakeWrapper",
-    "NSWrapper",
-]
+__all__ = ["GROUND_TRUTH_CHANGE", "GROUND_TRUTH_DELTA", "NSWrapper", "known_kwargs"]
 
 GROUND_TRUTH_CHANGE = "Ground Truth Env Change"
+"""``info`` key: parameter name -> 1 if it changed for this step's transition, else 0 (int)."""
 GROUND_TRUTH_DELTA = "Ground Truth Delta Change"
+"""``info`` key: parameter name -> size of that change (float; int 0 at reset, as NS-Gym)."""
 
 
 class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
@@ -76,7 +64,8 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         scalar_reward: Return the reward as a float (else a :class:`~ns_pz.compat.base.Reward`).
         persistent_params: Keep the parameters and the schedule's progress across resets.
         ground_truth_info: Put NS-Gym's ``"Ground Truth Env Change"`` and ``"Ground Truth Delta
-            Change"`` into ``info`` (NS-Gym always does; for evaluation code only).
+            Change"`` into ``info``, as NS-Gym always does (default); ``False`` leaves ``info``
+            empty, so an agent that reads ``info`` cannot see the true changes.
 
     Raises:
         TypeError / ValueError: Any argument NS-Gym would refuse, and the ones it silently
@@ -94,7 +83,7 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         *,
         scalar_reward: bool = True,
         persistent_params: bool = False,
-        ground_truth_info: bool = False,
+        ground_truth_info: bool = True,
     ) -> None:
         flags = {
             "change_notification": change_notification,
@@ -113,7 +102,8 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
                 "(sizes are only shown with the flags)"
             )
         binding = self._binding(env)
-        family, theta0 = self._family_and_params(env, binding)
+        settings = check_base_env(env, binding)
+        family, theta0 = self._family_and_params(env, binding, settings)
         self._check_tunable(tunable_params, binding, family.params_cls)
         nature = ScriptedNature(
             {binding.names[name]: fn.native() for name, fn in tunable_params.items()}
@@ -121,14 +111,21 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         level = "none"
         if change_notification:
             level = "detailed" if delta_change_notification else "basic"
-        core = NSGymEnv(
+        core = CompatCore(
             family,
             params=theta0,
             nature=nature,
             notification=level,
             max_episode_steps=time_limit(env),
+            binding=binding,
         )
         super().__init__(core)
+        adopt(env.unwrapped, core, binding)
+        seeds = [seed for fn in tunable_params.values() for seed in explicit_seeds(fn)]
+        self._first_seed: int | None = None
+        if seeds:
+            state = np.random.SeedSequence(seeds).generate_state(1, np.uint64)
+            self._first_seed = int(state[0])
         self.base_env = env
         self.binding = binding
         self.tunable_params = dict(tunable_params)
@@ -165,13 +162,14 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         raise NotImplementedError
 
     def _family_and_params(
-        self, env: gym.Env[Any, Any], binding: Binding
+        self, env: gym.Env[Any, Any], binding: Binding, settings: dict[str, Any]
     ) -> tuple[EnvFamily, Params]:
+        """The family (built with the env's honoured ``settings``) and θ_0."""
         raise NotImplementedError
 
     # -- Gymnasium API ------------------------------------------------------------------------
     @property
-    def core(self) -> NSGymEnv:
+    def core(self) -> CompatCore:
         """The ns_pz env doing the work."""
         return self.env  # type: ignore[return-value]
 
@@ -188,8 +186,16 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Start an episode; a seed reseeds the env and every scheduler and update function."""
+        """Start an episode; a seed reseeds the env and every scheduler and update function.
+
+        Without a seed, the first episode is seeded from the ``seed=`` arguments of the
+        schedulers and update functions, if any were given (so NS-Gym code that seeds only
+        those reproduces its runs); later unseeded episodes continue from there and differ.
+        """
         process = self.process
+        if seed is None and self._first_seed is not None:
+            seed = self._first_seed
+        self._first_seed = None
         if self.persistent_params and process.started:
             options = {**(options or {}), "params": process.last_theta}
             process.carried_nature_memory = copy.deepcopy(process.nature_memory)
@@ -203,7 +209,7 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         info: dict[str, Any] = {}
         if self.ground_truth_info:
             info[GROUND_TRUTH_CHANGE] = dict(self._zeros_int)
-            info[GROUND_TRUTH_DELTA] = dict(self._zeros_float)
+            info[GROUND_TRUTH_DELTA] = dict(self._zeros_int)
         return obs, info
 
     def step(  # type: ignore[override]  # NS-Gym's Reward in place of the float on request
@@ -304,6 +310,11 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         twin.env = copy.deepcopy(self.core, memo)
         return twin
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled: the env passed (pickled as a plain snapshot) reads this wrapper's θ again."""
+        self.__dict__.update(state)
+        adopt(self.base_env.unwrapped, self.core, self.binding)
+
     # -- construction helpers -----------------------------------------------------------------
     def _check_tunable(
         self, tunable_params: object, binding: Binding, params_cls: type[Params]
@@ -350,247 +361,10 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
     __str__ = __repr__
 
 
-class NSClassicControlWrapper(NSWrapper):
-    """CartPole-v1, MountainCar-v0, MountainCarContinuous-v0, Acrobot-v1 or Pendulum-v1.
-
-    θ_0 is read from the env's attributes (``masspole``, ``LINK_LENGTH_1``, ``m``, ...), so an
-    env whose constants you changed starts from them. A change that would leave the physical
-    range (a negative mass) is projected onto it (NS-Gym rejects the change with a warning).
-    """
-
-    _accepts = "a classic-control env (gymnasium.make('CartPole-v1'), ...)"
-
-    def __init__(
-        self,
-        env: gym.Env[Any, Any],
-        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
-        change_notification: bool = False,
-        delta_change_notification: bool = False,
-        in_sim_change: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        super().__init__(
-            env,
-            tunable_params,
-            change_notification,
-            delta_change_notification,
-            in_sim_change,
-            **_known(kwargs),
-        )
-
-    def _binding(self, env: gym.Env[Any, Any]) -> Binding:
-        binding = CLASSIC_CONTROL.get(env_class_name(env))
-        if binding is None:
-            raise self._unsupported(env, list(CLASSIC_CONTROL))
-        return binding
-
-    def _family_and_params(
-        self, env: gym.Env[Any, Any], binding: Binding
-    ) -> tuple[EnvFamily, Params]:
-        family_cls = binding.family_class()
-        kwargs = {}
-        if binding.env_class == "CartPoleEnv":
-            kwargs["kinematics_integrator"] = env.unwrapped.kinematics_integrator  # type: ignore[attr-defined]
-        family = family_cls(**kwargs)
-        return family, family.params_cls.from_mapping(classic_control_params(binding, env))
-
-
-class _GridWrapper(NSWrapper):
-    """Grid worlds: θ is the slip vector ``P`` (the intended move first)."""
-
-    _slip_doc: ClassVar[str] = ""
-
-    def _initial(self, initial_prob_dist: object, size: int) -> tuple[float, ...]:
-        vector = check_distribution("initial_prob_dist", initial_prob_dist)
-        if len(vector) != size:
-            raise ValueError(
-                f"initial_prob_dist={list(vector)!r} has {len(vector)} elements; "
-                f"{type(self).__name__} needs {size} {self._slip_doc}"
-            )
-        return vector
-
-
-class NSFrozenLakeWrapper(_GridWrapper):
-    """FrozenLake-v1 (any map) with the slip vector ``P = [intended, action+1, action-1]``.
-
-    Args:
-        initial_prob_dist: θ_0's slip vector (the base env's ``is_slippery`` is ignored, as in
-            NS-Gym).
-        modified_rewards: Reward for entering each cell letter (``"G"``, ``"H"``, ``"F"``, and
-            ``"S"`` equal to ``"F"``); default 1 for the goal, 0 elsewhere.
-        Other arguments: see :class:`NSWrapper`.
-    """
-
-    _accepts = "gymnasium.make('FrozenLake-v1', ...)"
-    _slip_doc = "([intended, action+1, action-1])"
-
-    def __init__(
-        self,
-        env: gym.Env[Any, Any],
-        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
-        change_notification: bool = False,
-        delta_change_notification: bool = False,
-        in_sim_change: bool = False,
-        initial_prob_dist: Sequence[float] = (1.0, 0.0, 0.0),
-        modified_rewards: Mapping[str, float] | None = None,
-        **kwargs: Any,
-    ) -> None:
-        self._initial_prob_dist = initial_prob_dist
-        self._modified_rewards = modified_rewards
-        super().__init__(
-            env,
-            tunable_params,
-            change_notification,
-            delta_change_notification,
-            in_sim_change,
-            **_known(kwargs),
-        )
-        self.initial_prob_dist = list(self.process.theta0.slip)  # type: ignore[attr-defined]
-        self.modified_rewards = modified_rewards
-
-    def _binding(self, env: gym.Env[Any, Any]) -> Binding:
-        if env_class_name(env) != FROZEN_LAKE.env_class:
-            raise self._unsupported(env, [FROZEN_LAKE.env_class])
-        return FROZEN_LAKE
-
-    def _family_and_params(
-        self, env: gym.Env[Any, Any], binding: Binding
-    ) -> tuple[EnvFamily, Params]:
-        rewards = _rewards(self._modified_rewards, {"G": 1.0, "H": 0.0, "F": 0.0, "S": 0.0})
-        desc = [
-            "".join(c.decode() if isinstance(c, bytes) else str(c) for c in row)
-            for row in env.unwrapped.desc  # type: ignore[attr-defined]
-        ]
-        family = FrozenLakeFamily(
-            desc=desc, reward_schedule=(rewards["G"], rewards["H"], rewards["F"])
-        )
-        return family, FrozenLakeParams(slip=self._initial(self._initial_prob_dist, 3))
-
-
-class NSCliffWalkingWrapper(_GridWrapper):
-    """CliffWalking-v1 with the slip vector ``P = [intended, action+1, action-1, reverse]``.
-
-    Args:
-        initial_prob_dist: θ_0's slip vector.
-        modified_rewards: Reward for entering each cell letter: ``"H"`` (the cliff, default
-            -100), ``"G"`` (default 0), ``"F"`` and ``"S"`` (default -1, equal to each other).
-        terminal_cliff: Stepping into the cliff also ends the episode (the agent is put back on
-            the start cell either way).
-        Other arguments: see :class:`NSWrapper`.
-    """
-
-    _accepts = "gymnasium.make('CliffWalking-v1') (not slippery)"
-    _slip_doc = "([intended, action+1, action-1, reverse])"
-
-    def __init__(
-        self,
-        env: gym.Env[Any, Any],
-        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
-        change_notification: bool = False,
-        delta_change_notification: bool = False,
-        in_sim_change: bool = False,
-        initial_prob_dist: Sequence[float] = (1.0, 0.0, 0.0, 0.0),
-        modified_rewards: Mapping[str, float] | None = None,
-        terminal_cliff: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        if not isinstance(terminal_cliff, (bool, np.bool_)):
-            raise TypeError(f"terminal_cliff={terminal_cliff!r} must be a bool")
-        self._initial_prob_dist = initial_prob_dist
-        self._modified_rewards = modified_rewards
-        self.terminal_cliff = bool(terminal_cliff)
-        super().__init__(
-            env,
-            tunable_params,
-            change_notification,
-            delta_change_notification,
-            in_sim_change,
-            **_known(kwargs),
-        )
-        self.initial_prob_dist = list(self.process.theta0.slip)  # type: ignore[attr-defined]
-        self.modified_rewards = modified_rewards
-
-    def _binding(self, env: gym.Env[Any, Any]) -> Binding:
-        if env_class_name(env) != CLIFF_WALKING.env_class:
-            raise self._unsupported(env, [CLIFF_WALKING.env_class])
-        if getattr(env.unwrapped, "is_slippery", False):
-            raise ValueError(
-                "env is slippery; build it with gymnasium.make('CliffWalking-v1', "
-                "is_slippery=False): the wrapper's initial_prob_dist and schedule set the slip"
-            )
-        return CLIFF_WALKING
-
-    def _family_and_params(
-        self, env: gym.Env[Any, Any], binding: Binding
-    ) -> tuple[EnvFamily, Params]:
-        rewards = _rewards(self._modified_rewards, {"H": -100.0, "G": 0.0, "F": -1.0, "S": -1.0})
-        family = CliffWalkingFamily(
-            goal_reward=rewards["G"],
-            cliff_reward=rewards["H"],
-            step_reward=rewards["F"],
-            terminal_cliff=self.terminal_cliff,
-        )
-        return family, CliffWalkingParams(slip=self._initial(self._initial_prob_dist, 4))
-
-
-class NSBridgeWrapper(_GridWrapper):
-    """The Bridge (``gymnasium.make("ns_pz_compat/Bridge-v0")``) with slip vector(s) as θ.
-
-    ``P`` is the global slip vector ``[intended, action+1, action-1]``; with a Bridge built with
-    ``split_probs=True`` the parameters are ``P_left`` and ``P_right``, both starting from
-    ``initial_prob_dist``. ``modified_rewards`` must be ``None``: the Bridge's rewards are fixed
-    (NS-Gym accepts and ignores it).
-    """
-
-    _accepts = "gymnasium.make('ns_pz_compat/Bridge-v0')"
-    _slip_doc = "([intended, action+1, action-1])"
-
-    def __init__(
-        self,
-        env: gym.Env[Any, Any],
-        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
-        change_notification: bool = False,
-        delta_change_notification: bool = False,
-        in_sim_change: bool = False,
-        initial_prob_dist: Sequence[float] = (1.0, 0.0, 0.0),
-        modified_rewards: Mapping[str, float] | None = None,
-        **kwargs: Any,
-    ) -> None:
-        if modified_rewards is not None:
-            raise ValueError(
-                f"modified_rewards={modified_rewards!r}: the Bridge's rewards are fixed (+1 goal, "
-                "-1 hole, 0 elsewhere); pass None"
-            )
-        self._initial_prob_dist = initial_prob_dist
-        super().__init__(
-            env,
-            tunable_params,
-            change_notification,
-            delta_change_notification,
-            in_sim_change,
-            **_known(kwargs),
-        )
-        self.initial_prob_dist = list(self._initial(initial_prob_dist, 3))
-        self.modified_rewards = None
-
-    def _binding(self, env: gym.Env[Any, Any]) -> Binding:
-        if env_class_name(env) != BRIDGE.env_class or not hasattr(env.unwrapped, "family"):
-            raise self._unsupported(env, ["Bridge (ns_pz.compat.envs.Bridge)"])
-        return SPLIT_BRIDGE if env.unwrapped.split_probs else BRIDGE  # type: ignore[attr-defined]
-
-    def _family_and_params(
-        self, env: gym.Env[Any, Any], binding: Binding
-    ) -> tuple[EnvFamily, Params]:
-        family: EnvFamily = env.unwrapped.family  # type: ignore[attr-defined]
-        slip = self._initial(self._initial_prob_dist, 3)
-        names = family.params_cls.names()
-        return family, family.params_cls(**dict.fromkeys(names, slip))
-
-
 _WRAPPER_KWARGS = ("scalar_reward", "persistent_params", "ground_truth_info")
 
 
-def _known(kwargs: dict[str, Any]) -> dict[str, Any]:
+def known_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
     """The keyword arguments :class:`NSWrapper` takes; any other raises (NS-Gym ignores them)."""
     unknown = sorted(set(kwargs) - set(_WRAPPER_KWARGS))
     if unknown:
@@ -598,29 +372,6 @@ def _known(kwargs: dict[str, Any]) -> dict[str, Any]:
             f"unexpected keyword argument(s) {unknown}; allowed: {list(_WRAPPER_KWARGS)}"
         )
     return kwargs
-
-
-def _rewards(modified: Mapping[str, float] | None, defaults: dict[str, float]) -> dict[str, float]:
-    """Cell-letter rewards: ``defaults`` updated by ``modified``, checked."""
-    if modified is None:
-        return defaults
-    if not isinstance(modified, Mapping):
-        raise TypeError(f"modified_rewards={modified!r} must be a dict of cell letter to reward")
-    unknown = sorted(set(modified) - set(defaults))
-    if unknown:
-        raise ValueError(
-            f"modified_rewards has cell letters {unknown}; allowed: {sorted(defaults)}"
-        )
-    rewards = {
-        **defaults,
-        **{k: check_real(f"modified_rewards[{k!r}]", v) for k, v in modified.items()},
-    }
-    if rewards["S"] != rewards["F"]:
-        raise ValueError(
-            f"modified_rewards gives 'S' {rewards['S']!r} but 'F' {rewards['F']!r}; entering the "
-            "start cell is rewarded as a free cell here, so they must be equal"
-        )
-    return rewards
 
 
 def _plain(value: Any) -> Any:
