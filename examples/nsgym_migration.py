@@ -47,12 +47,13 @@ native_env = ns_pz.make_gym(
     params={"slip": (1.0, 0.0, 0.0)},
     nature=schedule,
     notification="detailed",
+    ground_truth_info=True,  # info["theta"]: the θ each transition ran under (evaluation only)
 )
 native_obs, _ = native_env.reset(seed=0)
 native_slips = []
 for action in ACTIONS[: len(compat_slips)]:
-    native_obs, reward, terminated, truncated, _ = native_env.step(action)
-    native_slips.append(list(native_env.ground_truth().theta.slip))
+    native_obs, reward, terminated, truncated, info = native_env.step(action)
+    native_slips.append(list(info["theta"]["slip"]))
 print(f"native: last obs {native_obs}")
 print(f"native and compat slip trajectories equal: {native_slips == compat_slips}")
 

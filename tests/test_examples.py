@@ -17,3 +17,10 @@ def test_example_runs(script):
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip()
+
+
+def test_the_migration_example_shows_equal_trajectories():
+    """The NS-Gym migration example's point: compat and native give the same θ trajectory."""
+    script = next(path for path in EXAMPLES if path.name == "nsgym_migration.py")
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert "trajectories equal: True" in out.stdout, out.stdout + out.stderr
