@@ -156,9 +156,9 @@ def test_theta_trajectory_is_the_one_a_played_episode_sees(nature, constraints):
 
 
 def test_theta_trajectory_through_gymnasium_make_and_its_refusals():
-    """The horizon comes from Gymnasium's TimeLimit; unknown natures and bad input are refused."""
+    """Through gymnasium.make the horizon is the view's own limit; bad input is refused."""
     nature = ScriptedNature({"slip": DistributionDecrementUpdate(ContinuousScheduler(1), 0.1)})
-    wrapped = gymnasium.make("ns_pz/Bridge-v0", nature=nature)  # TimeLimit holds the limit
+    wrapped = gymnasium.make("ns_pz/Bridge-v0", nature=nature)  # the view truncates by itself
     thetas = theta_trajectory(wrapped, 0)
     assert len(thetas) == 200 and thetas[0].slip[0] == 1.0
     assert thetas[3].slip[0] == pytest.approx(0.7)

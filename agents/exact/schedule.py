@@ -57,10 +57,7 @@ def theta_trajectory(
             f"exists before the episode is played; known open-loop natures: {names} "
             "(pass assume_open_loop=True if yours never reads the state or the agent)"
         )
-    limit = process.max_episode_steps
-    if limit is None:  # gymnasium.make: Gymnasium's TimeLimit truncates, its spec holds the limit
-        limit = getattr(getattr(env, "spec", None), "max_episode_steps", None)
-    horizon = check_horizon(horizon, limit)
+    horizon = check_horizon(horizon, process.max_episode_steps)
     replay = copy.copy(process)  # seed() and reset() rebind every per-episode attribute
     replay.seed(seed)
     replay.reset()
