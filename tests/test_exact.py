@@ -391,13 +391,60 @@ def test_robust_value_is_below_every_nature_inside_the_bound(env_id):
     assert (policy_values(family, thetas, robust.policy)[0] < robust.values[0] - 1e-6).any()
 
 
-def test_robust_interval_without_lipschitz_and_off_line_theta0():
-    """(a) a fixed interval; θ_0 off the equal-split line stays one of nature's options."""
+def test_robust_interval_without_lipschitz():
+    """A fixed interval [0.5, 0.9]: the ends and θ_0 itself never go below the guarantee."""
     family = ns_pz.make_gym("ns_pz/FrozenLake-v0").family
-    theta0 = FrozenLakeParams(slip=(0.7, 0.3, 0.0))
+    theta0 = FrozenLakeParams(slip=equal_split(0.7, 3))
     robust = robust_slip_solution(family, theta0, 50, low=0.5, high=0.9)
-    for thetas in ([theta0] * 50, [FrozenLakeParams(slip=equal_split(0.5, 3))] * 50):
-        achieved = policy_values(family, thetas, robust.policy)
+    for p in (0.5, 0.7, 0.9):
+        achieved = policy_values(
+            family, [FrozenLakeParams(slip=equal_split(p, 3))] * 50, robust.policy
+        )
         assert (robust.values <= achieved + 1e-9).all()
     with pytest.raises(TypeError, match="is not tabular"):
         robust_slip_solution(ns_pz.make_gym("ns_pz/CartPole-v0").family, theta0, 5)
+
+
+def test_robust_refuses_theta0_off_the_equal_split_line():
+    """Bridge θ_0 = (0.7, 0.3, 0), budget 0.3: the old solver's guarantee was false.
+
+    It "guaranteed" 0.64 from state 8 over 3 steps, while a nature that jumps to (0.4, 0.6, 0)
+    (TV 0.3, inside the budget) gets 0.496. Off the line nature's set is no segment; the solver
+    refuses such a θ_0 and names it. Rounding on the line is accepted.
+    """
+    family = BridgeFamily()
+    with pytest.raises(ValueError, match=r"theta0.slip=\(0.7, 0.3, 0.0\) is off the equal-split"):
+        robust_slip_solution(family, BridgeParams(slip=(0.7, 0.3, 0.0)), 3, budget=0.3)
+    with pytest.raises(ValueError, match=r"accepts only slip vectors \[p, \(1-p\)/2, ...\]"):
+        robust_slip_solution(family, BridgeParams(slip=(0.7, 0.2, 0.1)), 3, budget=0.3)
+    robust_slip_solution(family, BridgeParams(slip=(0.7, 0.15, 0.15)), 3, budget=0.3)
+
+
+def test_robust_guarantee_holds_for_every_nature_schedule_of_a_small_instance():
+    """Bridge, θ_0 on the line at p = 0.7, H = 5, L = 0.1, budget 0.3, nature from step 0.
+
+    Brute force over every schedule moving p by -0.1, -0.05, 0, 0.05 or 0.1 per step within the
+    budget (1,893 schedules): none gets the robust policy below its guaranteed value at any
+    state, and the worst of them reaches the guarantee at the start. A nature with the same
+    per-step and total TV that leaves the line (mass to one slip outcome only) gets below it.
+    """
+    family, horizon = BridgeFamily(), 5
+    theta0 = BridgeParams(slip=equal_split(0.7, 3))
+    robust = robust_slip_solution(family, theta0, horizon, lipschitz=0.1, budget=0.3)
+    worst = np.full(robust.values.shape[1], np.inf)
+    schedules = 0
+    for steps in itertools.product(range(-2, 3), repeat=horizon):  # in units of 0.05
+        if sum(map(abs, steps)) > 6:  # budget 0.3
+            continue
+        p_values = [min(1.0, round(0.7 + 0.05 * k, 12)) for k in np.cumsum(steps)]
+        thetas = [BridgeParams(slip=equal_split(p, 3)) for p in p_values]
+        worst = np.minimum(worst, policy_values(family, thetas, robust.policy)[0])
+        schedules += 1
+    assert schedules == 1893
+    assert (worst >= robust.values[0] - 1e-9).all()
+    start = family.start_states[0]
+    assert worst[start] == pytest.approx(robust.values[0, start], abs=1e-9)
+    off_line = [(0.6, 0.15, 0.25), (0.5, 0.15, 0.35), (0.4, 0.25, 0.35)]  # TV 0.1 per step
+    thetas = [BridgeParams(slip=v) for v in off_line + off_line[-1:] * 2]
+    achieved = policy_values(family, thetas, robust.policy)[0]
+    assert (achieved < robust.values[0] - 0.04).any()
