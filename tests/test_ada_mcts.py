@@ -258,3 +258,43 @@ def test_bad_learner_arguments_are_refused():
     table = model.outcomes
     with pytest.raises(ValueError, match="prior=0.0 must be a finite number > 0"):
         DirichletLearner(table.next_states, table.rewards, table.terminals, prior=0.0)
+
+
+def test_pessimism_along_the_cliff_does_not_fade_towards_the_goal():
+    """CliffWalking, θ_0 = (0.7, 0.1, 0.1, 0.1), the agent in danger on row 2, radius 1.
+
+    Action RIGHT from (2, c): intended (2, c+1), +1 = DOWN into the cliff cell (3, c), -1 = UP
+    (1, c), reverse (2, c-1). W1 to the Dirac on the cliff, measured between the cells the moves
+    enter: 0.7 * 2 + 0.1 * 0 + 0.1 * 2 + 0.1 * 2 = 1.8, so λ = 1/1.8 and P(cliff) = 0.1 + 0.9 λ =
+    0.6 on every column. Measured between next states (the cliff teleports to the start (3, 0))
+    the cliff looked farther the farther the agent was from the start: 0.46 at column 1, 0.19 at
+    column 10.
+    """
+    env = ns_pz.make_gym(
+        "ns_pz/CliffWalking-v0", params={"slip": (0.7, 0.1, 0.1, 0.1)}, goal_reward=100.0
+    )
+    env.reset(seed=0)
+    model = env.planning_model()
+    table = model.outcomes
+    edge = [2 * 12 + col for col in range(1, 11)]
+    assert (table.next_states[edge, 1, 1] == 36).all()  # the start
+    assert table.cells[edge, 1, 1].tolist() == [36 + col for col in range(1, 11)]
+    agent = ADAMCTS(iterations=2, depth=2)
+    agent.reset(np.random.default_rng(0))
+    for root in (edge[0], edge[-1]):  # the root's danger decides the mixture for every state
+        model.set_state(root)
+        agent.act({"state": root}, model)
+        assert agent.in_danger(agent._values(table), table, root)
+        cliff = table.rewards[edge, 1] == -100.0
+        p_cliff = (agent.last_kernel[edge, 1] * cliff).sum(axis=1)
+        np.testing.assert_allclose(p_cliff, 0.6, rtol=1e-12)
+
+
+def test_landing_cells_are_the_next_states_where_nothing_teleports():
+    """FrozenLake and the Bridge move the agent into the cell it enters."""
+    for env_id in ("ns_pz/FrozenLake-v0", "ns_pz/Bridge-v0"):
+        env = ns_pz.make_gym(env_id)
+        env.reset(seed=0)
+        table = env.planning_model().outcomes
+        np.testing.assert_array_equal(table.cells, table.next_states)
+        assert not table.cells.flags.writeable
