@@ -42,7 +42,13 @@ from typing import Any
 
 import numpy as np
 from ns_pz.agents.base import Agent
-from ns_pz.agents.search.dirichlet import POOLINGS, DirichletLearner, aggregate, entropy
+from ns_pz.agents.search.dirichlet import (
+    POOLINGS,
+    DirichletLearner,
+    aggregate,
+    entropy,
+    epistemic,
+)
 from ns_pz.agents.search.mcts import check_uct_params, result_of, uct_tree
 from ns_pz.agents.search.table_model import OutcomeTableModel
 from ns_pz.agents.search.types import SearchResult
@@ -288,7 +294,7 @@ class ADAMCTS(Agent):
             return pessimistic
         atoms = learner.atoms
         base_atoms = aggregate(base, atoms)
-        eu_0 = (1.0 - (base_atoms * base_atoms).sum(axis=2)) / (self.base_concentration + 1.0)
+        eu_0 = epistemic(self.base_concentration * base_atoms)  # M0: Dirichlet(c · T0)
         eu_1 = learner.epistemic()
         learned = learner.mean()
         visited = learner.visits > 0
