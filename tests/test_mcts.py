@@ -279,16 +279,8 @@ def test_ucb_uses_the_log_of_the_parent_visits(backend):
     would be 1.1774 and 1.1526, and action 0 taken: visits [2, 2].
     """
     model = OutcomeTableModel(ucb_table(0.32), 0, np.random.default_rng(0))
-    tree = uct_tree(
-        model,
-        0,
-        np.random.default_rng(5),
-        iterations=4,
-        depth=0,
-        c=1.0,
-        gamma=1.0,
-        backend=backend,
-    )
+    options = {"iterations": 4, "depth": 0, "c": 1.0, "gamma": 1.0, "backend": backend}
+    tree = uct_tree(model, 0, np.random.default_rng(5), **options)
     assert tree.visits[0].tolist() == [1, 3]
     np.testing.assert_array_equal(tree.q[0], [0.0, 0.32])
 
@@ -301,16 +293,8 @@ def test_final_rules_disagree_where_the_most_visited_action_is_not_the_best(back
     """
     for final, expected in (("value", 0), ("visits", 1)):
         model = OutcomeTableModel(coin_table(), 0, np.random.default_rng(2))
-        result = uct(
-            model,
-            0,
-            np.random.default_rng(0),
-            iterations=3,
-            depth=0,
-            c=0.0,
-            final=final,
-            backend=backend,
-        )
+        options = {"iterations": 3, "depth": 0, "c": 0.0, "final": final, "backend": backend}
+        result = uct(model, 0, np.random.default_rng(0), **options)
         assert result.visits.tolist() == [1, 2]
         np.testing.assert_array_equal(result.values, [0.6, 0.5])
         assert result.action == expected, final
@@ -368,15 +352,6 @@ def test_non_discrete_action_space_is_refused():
 
     with pytest.raises(TypeError, match="Discrete"):
         uct(Continuous(), 0, np.random.default_rng(0), iterations=2)
-
-
-@pytest.mark.parametrize("final", ["value", "visits"])
-def test_final_rule_chooses_by_value_or_visits(final):
-    """``final`` picks the argmax of the root's mean Q or of its visit counts."""
-    model = OutcomeTableModel(two_step_table(), 0, np.random.default_rng(0))
-    result = uct(model, 0, np.random.default_rng(3), iterations=20, depth=2, gamma=0.5, final=final)
-    best = np.argmax(result.values if final == "value" else result.visits)
-    assert result.action == best == 1
 
 
 def test_mcts_agent_plays_an_episode_reproducibly():
