@@ -36,6 +36,7 @@ import numpy as np
 from ns_pz.agents.exact import (
     backward_induction,
     equal_split,
+    initial_theta,
     oracle_solution,
     policy_values,
     snapshot_policy,
@@ -211,8 +212,10 @@ def bench_optimum() -> None:
             env = single_change_env(env_id, new_p)
             family, thetas = env.family, theta_trajectory(env, 0)
             oracle = start_value(family, oracle_solution(family, thetas).values)
-            snap = policy_values(family, thetas, snapshot_policy(family, thetas))
-            stale = policy_values(family, thetas, stale_policy(family, thetas[0], horizon))
+            snap = policy_values(
+                family, thetas, snapshot_policy(family, initial_theta(env), thetas)
+            )
+            stale = policy_values(family, thetas, stale_policy(family, initial_theta(env), horizon))
             print(
                 f"{env_id.split('/')[1]:18}{p0:5.1f}{horizon:5d}{new_p:7.1f}{oracle:12.4f}"
                 f"{start_value(family, snap):12.4f}{start_value(family, stale):12.4f}"

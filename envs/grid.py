@@ -6,7 +6,10 @@ leaves the agent in place. What a cell does (reward, terminal, teleport) is up t
 
 All outcomes are computed once per map: ``outcome k`` of action ``a`` in state ``s`` is a fixed
 (next state, reward, terminal) triple, and only its probability follows θ. A change of θ is
-therefore free: no table is rebuilt, in Python or otherwise.
+therefore free: no table is rebuilt, in Python or otherwise. Each outcome also has its *landing
+cell*, the cell its move enters before the family's rule applies (CliffWalking's cliff cells send
+the agent on to the start): the table's ``landing_cells``, what a ground metric between outcomes
+is measured on.
 """
 
 from __future__ import annotations
@@ -64,6 +67,15 @@ class SlipGridFamily(EnvFamily):
         )
         self._slip_param = tuple(self.slip_param_of(s) for s in range(num_states))
         self._structure = _structure_arrays(self._table)
+        self._landing_cells = _read_only(
+            np.array(
+                [
+                    [self._landing_cells_of(s, a) for a in range(len(self.moves))]
+                    for s in range(num_states)
+                ],
+                dtype=np.int64,
+            )
+        )
 
     # -- what a family defines --------------------------------------------------------------
     @abstractmethod
@@ -86,14 +98,23 @@ class SlipGridFamily(EnvFamily):
     def _outcomes_of(self, state: int, action: int) -> tuple[Outcome, ...]:
         if self.is_terminal_state(state):
             return tuple((state, 0.0, True) for _ in self.offsets)
+        return tuple(
+            self.cell_outcome(state, *divmod(cell, self.ncol))
+            for cell in self._landing_cells_of(state, action)
+        )
+
+    def _landing_cells_of(self, state: int, action: int) -> tuple[int, ...]:
+        """The cell each slip outcome's move enters (off the grid: stays; terminal: ``state``)."""
+        if self.is_terminal_state(state):
+            return (state,) * len(self.offsets)
         row, col = divmod(state, self.ncol)
-        result = []
+        cells = []
         for offset in self.offsets:
             d_row, d_col = self.moves[(action + offset) % len(self.moves)]
             new_row = min(max(row + d_row, 0), self.nrow - 1)
             new_col = min(max(col + d_col, 0), self.ncol - 1)
-            result.append(self.cell_outcome(state, new_row, new_col))
-        return tuple(result)
+            cells.append(new_row * self.ncol + new_col)
+        return tuple(cells)
 
     def initial_state(self, rng: np.random.Generator) -> int:
         """A start cell, uniformly (one uniform draw, as Gymnasium's toy-text envs)."""
@@ -145,7 +166,7 @@ class SlipGridFamily(EnvFamily):
         num_states, num_actions, num_outcomes = self._structure[0].shape
         probs = np.broadcast_to(vectors[index][:, None, :], (num_states, num_actions, num_outcomes))
         next_states, rewards, terminals = self._structure
-        return TabularOutcomes(probs, next_states, rewards, terminals)
+        return TabularOutcomes(probs, next_states, rewards, terminals, self._landing_cells)
 
     def planning_model(self, theta: Params, state: int, rng: np.random.Generator) -> TabularModel:
         """A stationary model with the explicit outcome table."""
@@ -211,9 +232,12 @@ def _structure_arrays(table: Sequence[Sequence[Sequence[Outcome]]]) -> tuple[np.
     next_states = np.array([[[o[0] for o in row] for row in by_s] for by_s in table], np.int64)
     rewards = np.array([[[o[1] for o in row] for row in by_s] for by_s in table], np.float64)
     terminals = np.array([[[o[2] for o in row] for row in by_s] for by_s in table], np.bool_)
-    for array in (next_states, rewards, terminals):
-        array.flags.writeable = False
-    return next_states, rewards, terminals
+    return _read_only(next_states), _read_only(rewards), _read_only(terminals)
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
 
 
 def check_map(desc: Sequence[str]) -> tuple[str, ...]:

@@ -98,12 +98,23 @@ class TabularOutcomes:
         next_states: ``[num_states, num_actions, num_outcomes]`` int64.
         rewards: ``[num_states, num_actions, num_outcomes]`` float64, reward of that outcome.
         terminals: ``[num_states, num_actions, num_outcomes]`` bool, whether it ends the episode.
+        landing_cells: ``[num_states, num_actions, num_outcomes]`` int64, the grid cell the
+            outcome's move enters before the family's rule moves the agent on (CliffWalking: a
+            cliff cell, where ``next_states`` holds the start it sends the agent back to). A
+            ground metric between outcomes is measured between these. ``None``: the next
+            states are those cells.
     """
 
     probs: np.ndarray
     next_states: np.ndarray
     rewards: np.ndarray
     terminals: np.ndarray
+    landing_cells: np.ndarray | None = None
+
+    @property
+    def cells(self) -> np.ndarray:
+        """``landing_cells``, or ``next_states`` where the table has none."""
+        return self.next_states if self.landing_cells is None else self.landing_cells
 
 
 class TabularModel(PlanningModel):

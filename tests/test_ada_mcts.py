@@ -7,9 +7,16 @@ import pytest
 from ns_pz.agents import run_episode, value_iteration
 from ns_pz.agents.search import ADAMCTS, MCTS
 from ns_pz.agents.search.ada_mcts import manhattan, pessimistic_kernel
-from ns_pz.agents.search.dirichlet import DirichletLearner, atoms_of
+from ns_pz.agents.search.compiled import numba_available
+from ns_pz.agents.search.dirichlet import DirichletLearner, atoms_of, epistemic
+from ns_pz.agents.search.table_model import OutcomeTableModel
+from tables_for_tests import coin_table, table
 
 import ns_pz
+from ns_pz.planning import TabularOutcomes
+
+needs_numba = pytest.mark.skipif(not numba_available(), reason="numba (the fast extra) missing")
+BACKENDS = ["python", pytest.param("compiled", marks=needs_numba)]
 
 
 def lake(slip: tuple[float, float, float] = (0.7, 0.15, 0.15)):
@@ -99,6 +106,7 @@ def test_danger_counts_negative_action_next_state_pairs():
     values = agent._values(model.outcomes)
     assert agent.in_danger(values, model.outcomes, 6)
     assert not agent.in_danger(values, model.outcomes, 0)
+    assert ADAMCTS(failure_reward=-1.0, danger_threshold=6).in_danger(values, model.outcomes, 6)
     assert not ADAMCTS(failure_reward=-1.0, danger_threshold=7).in_danger(values, model.outcomes, 6)
 
 
@@ -258,3 +266,147 @@ def test_bad_learner_arguments_are_refused():
     table = model.outcomes
     with pytest.raises(ValueError, match="prior=0.0 must be a finite number > 0"):
         DirichletLearner(table.next_states, table.rewards, table.terminals, prior=0.0)
+
+
+def test_pessimism_along_the_cliff_does_not_fade_towards_the_goal():
+    """CliffWalking, θ_0 = (0.7, 0.1, 0.1, 0.1), the agent in danger on row 2, radius 1.
+
+    Action RIGHT from (2, c): intended (2, c+1), +1 = DOWN into the cliff cell (3, c), -1 = UP
+    (1, c), reverse (2, c-1). W1 to the Dirac on the cliff, measured between the cells the moves
+    enter: 0.7 * 2 + 0.1 * 0 + 0.1 * 2 + 0.1 * 2 = 1.8, so λ = 1/1.8 and P(cliff) = 0.1 + 0.9 λ =
+    0.6 on every column. Measured between next states (the cliff teleports to the start (3, 0))
+    the cliff looked farther the farther the agent was from the start: 0.46 at column 1, 0.19 at
+    column 10.
+    """
+    env = ns_pz.make_gym(
+        "ns_pz/CliffWalking-v0", params={"slip": (0.7, 0.1, 0.1, 0.1)}, goal_reward=100.0
+    )
+    env.reset(seed=0)
+    model = env.planning_model()
+    table = model.outcomes
+    edge = [2 * 12 + col for col in range(1, 11)]
+    assert (table.next_states[edge, 1, 1] == 36).all()  # the start
+    assert table.cells[edge, 1, 1].tolist() == [36 + col for col in range(1, 11)]
+    agent = ADAMCTS(iterations=2, depth=2)
+    agent.reset(np.random.default_rng(0))
+    for root in (edge[0], edge[-1]):  # the root's danger decides the mixture for every state
+        model.set_state(root)
+        agent.act({"state": root}, model)
+        assert agent.in_danger(agent._values(table), table, root)
+        cliff = table.rewards[edge, 1] == -100.0
+        p_cliff = (agent.last_kernel[edge, 1] * cliff).sum(axis=1)
+        np.testing.assert_allclose(p_cliff, 0.6, rtol=1e-12)
+
+
+def test_landing_cells_are_the_next_states_where_nothing_teleports():
+    """FrozenLake and the Bridge move the agent into the cell it enters."""
+    for env_id in ("ns_pz/FrozenLake-v0", "ns_pz/Bridge-v0"):
+        env = ns_pz.make_gym(env_id)
+        env.reset(seed=0)
+        table = env.planning_model().outcomes
+        np.testing.assert_array_equal(table.cells, table.next_states)
+        assert not table.cells.flags.writeable
+
+
+def test_epistemic_is_the_sum_of_the_dirichlet_posterior_variances():
+    """EU = Σ_i Var(p_i), Var(p_i) = α_i (α_0 - α_i) / (α_0² (α_0 + 1)), on random α."""
+    alpha = np.random.default_rng(0).uniform(0.1, 5.0, size=(3, 2, 4))
+    total = alpha.sum(axis=2, keepdims=True)
+    variances = alpha * (total - alpha) / (total**2 * (total + 1.0))
+    np.testing.assert_allclose(epistemic(alpha), variances.sum(axis=2), rtol=1e-12)
+    # one atom of concentration 1 against two of 1: Beta(1, 1) has variance 1/12 per side
+    np.testing.assert_allclose(epistemic(np.array([[[1.0, 1.0]]])), [[1 / 6]], rtol=1e-12)
+
+
+def fork_table() -> TabularOutcomes:
+    """State 0, one action: to state 1 or 2 with T0 = (0.5, 0.5), nothing negative; 1, 2 end."""
+    ends = [(1.0, 0, 0.0, True), (0.0, 0, 0.0, True)]
+    return table([[[(0.5, 1, 0.0, False), (0.5, 2, 0.0, False)]], [ends], [ends]])
+
+
+def test_m0_epistemic_uncertainty_divides_by_its_concentration_plus_one():
+    """Which side of δ = 0 EU_1 falls on decides between T0 (phase 1) and the learned T1.
+
+    M0 = Dirichlet(4 · (0.5, 0.5)): EU_0 = 0.5 / (4 + 1) = 0.1. M1 after one transition to
+    state 1, prior 1: α = (2, 1), EU_1 = (1 - 4/9 - 1/9) / 4 = 1/9 > EU_0, so M1 is still
+    unsure and the kernel is T0 (nothing is negative, so P̃0 = T0). EU_0 = 0.5 / 4 = 0.125
+    would trust M1 and sample its mean (2/3, 1/3). (AU_1 < AU_0 = ln 2: no noisier-world mix.)
+    """
+    fork = fork_table()
+    model = OutcomeTableModel(fork, 0, np.random.default_rng(0))
+    agent = ADAMCTS(iterations=2, depth=0, warmup=1, delta=0.0, base_concentration=4.0)
+    agent.reset(np.random.default_rng(0))
+    agent.act({"state": 0}, model)
+    agent.observe({"state": 0}, 0, 0.0, {"state": 1}, False)
+    agent.act({"state": 0}, model)
+    np.testing.assert_allclose(agent.learner.epistemic()[0, 0], 1 / 9, rtol=1e-12)
+    np.testing.assert_array_equal(agent.last_kernel[0, 0], [0.5, 0.5])
+    agent = ADAMCTS(iterations=2, depth=0, warmup=1, delta=0.0, base_concentration=5.0)
+    agent.reset(np.random.default_rng(0))  # EU_0 = 0.5 / 6 < 1/9 as well: still T0
+    agent.act({"state": 0}, model)
+    agent.observe({"state": 0}, 0, 0.0, {"state": 1}, False)
+    agent.act({"state": 0}, model)
+    np.testing.assert_array_equal(agent.last_kernel[0, 0], [0.5, 0.5])
+    agent = ADAMCTS(iterations=2, depth=0, warmup=1, delta=0.0, base_concentration=3.0)
+    agent.reset(np.random.default_rng(0))  # EU_0 = 0.5 / 4 = 0.125 > 1/9: M1 is trusted
+    agent.act({"state": 0}, model)
+    agent.observe({"state": 0}, 0, 0.0, {"state": 1}, False)
+    agent.act({"state": 0}, model)
+    np.testing.assert_allclose(agent.last_kernel[0, 0], [2 / 3, 1 / 3], rtol=1e-12)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_ada_mcts_plays_the_most_visited_action(backend):
+    """Exploration c = 0, three iterations: action 1 pays 1, is taken again greedily, pays 0.
+
+    Root: visits [1, 2], Q [0.6, 0.5]: ADA-MCTS plays 1 (the most visited), not 0 (best Q).
+    """
+    coin = coin_table()
+    agent = ADAMCTS(iterations=3, depth=0, c=0.0, backend=backend)
+    agent.reset(np.random.default_rng(0))
+    action = agent.act({"state": 0}, OutcomeTableModel(coin, 0, np.random.default_rng(2)))
+    assert agent.last_result.visits.tolist() == [1, 2]
+    np.testing.assert_array_equal(agent.last_result.values, [0.6, 0.5])
+    assert action == 1
+
+
+def test_the_real_state_in_danger_turns_the_dirac_into_the_w1_mixture():
+    """FrozenLake θ_0 = (0.7, 0.15, 0.15), radius 1; kernel of (6, DOWN) from two roots.
+
+    (6, DOWN): 0.7 to 10, 0.15 to the holes 7 and 5; the worst is hole 7 (first of the ties).
+    From root 6 (two holes beside it: in danger), W1 to the Dirac on 7 is 0.7 * 2 + 0.15 * 2 =
+    1.7, λ = 1 / 1.7: (1 - λ) T0 + λ δ_7. From root 0 (no hole beside it), the Dirac δ_7.
+    """
+    _, model = lake()
+    agent = ADAMCTS(iterations=2, depth=2, failure_reward=-1.0)
+    agent.reset(np.random.default_rng(0))
+    lam = 1 / 1.7
+    for root, expected in (
+        (6, (1 - lam) * np.array([0.7, 0.15, 0.15]) + lam * np.array([0.0, 1.0, 0.0])),
+        (0, np.array([0.0, 1.0, 0.0])),
+    ):
+        model.set_state(root)
+        agent.act({"state": root}, model)
+        np.testing.assert_allclose(agent.last_kernel[6, 1], expected, rtol=1e-12, atol=0)
+
+
+def test_danger_counts_distinct_action_cell_pairs_at_the_threshold():
+    """Cells 1 and 2 are holes (-1). Action 0 lands in 1, 1, 2; action 1 in 1, 3, 3.
+
+    Negative (action, cell) pairs: (0, 1), (0, 2), (1, 1): three, from four negative slots and
+    two distinct cells. In danger at threshold 3, not at 4.
+    """
+    hole = [(1.0, 1, -1.0, True), (0.0, 1, -1.0, True), (0.0, 1, -1.0, True)]
+    rows = [
+        [
+            [(0.5, 1, -1.0, True), (0.25, 1, -1.0, True), (0.25, 2, -1.0, True)],
+            [(0.5, 1, -1.0, True), (0.25, 3, 0.0, False), (0.25, 3, 0.0, False)],
+        ],
+        [hole, hole],
+        [hole, hole],
+        [hole, hole],
+    ]
+    outcomes = table(rows)
+    values = np.asarray(outcomes.rewards)
+    assert ADAMCTS(danger_threshold=3).in_danger(values, outcomes, 0)
+    assert not ADAMCTS(danger_threshold=4).in_danger(values, outcomes, 0)

@@ -13,6 +13,7 @@ from ns_pz.agents.exact import (
     backward_induction,
     equal_split,
     evaluate_policy,
+    initial_theta,
     oracle_agent,
     oracle_solution,
     policy_values,
@@ -110,10 +111,10 @@ def test_backward_induction_rejects_bad_input():
 
 
 # -- θ trajectories ----------------------------------------------------------------------------
-def single_change_env(env_id="ns_pz/FrozenLake-v0", base=0.7, new=0.4, **kwargs):
-    """The paper's single change: p_0 = base, p -> new from transition 1 on (k = 1)."""
+def single_change_env(env_id="ns_pz/FrozenLake-v0", base=0.7, new=0.4, first_step=1, **kwargs):
+    """The paper's single change: p_0 = base, p -> new from transition ``first_step`` on (k)."""
     size = 4 if "Cliff" in env_id else 3
-    rule = DistributionStepWiseUpdate(DiscreteScheduler({1}), [equal_split(new, size)])
+    rule = DistributionStepWiseUpdate(DiscreteScheduler({first_step}), [equal_split(new, size)])
     return ns_pz.make_gym(
         env_id,
         params={"slip": equal_split(base, size)},
@@ -188,10 +189,11 @@ def test_oracle_value_is_its_monte_carlo_mean_and_beats_stale_and_snapshot():
     exact = {
         "oracle": start_value(family, solution.values),
         "stale": start_value(
-            family, policy_values(family, thetas, stale_policy(family, thetas[0], 100))
+            family, policy_values(family, thetas, stale_policy(family, initial_theta(env), 100))
         ),
         "snapshot": start_value(
-            family, policy_values(family, thetas, snapshot_policy(family, thetas))
+            family,
+            policy_values(family, thetas, snapshot_policy(family, initial_theta(env), thetas)),
         ),
     }
     assert exact["oracle"] > exact["stale"] + 0.1 and exact["oracle"] >= exact["snapshot"]
@@ -217,20 +219,60 @@ def test_snapshot_agent_plays_the_snapshot_policy_step_by_step():
         "ns_pz/CliffWalking-v0", base=1.0, new=0.6, goal_reward=100.0, notification="detailed"
     )
     thetas = theta_trajectory(env, 0)
-    policy = snapshot_policy(env.family, thetas)
-    stale = stale_policy(env.family, thetas[0], 200)
+    policy = snapshot_policy(env.family, initial_theta(env), thetas)
+    stale = stale_policy(env.family, initial_theta(env), 200)
     assert (policy[1] != stale[1]).any() or (policy[2] != stale[2]).any()
-    agent = SnapshotValueIteration(gamma=1.0, horizon=200)
+    assert_agent_plays(env, SnapshotValueIteration(gamma=1.0, horizon=200), policy, seeds=3)
+
+
+def assert_agent_plays(env, agent, policy, seeds, steps=60):
+    """``agent`` picks ``policy[t, state]`` at every decision of ``seeds`` episodes."""
     agent.reset(np.random.default_rng(0))
-    for seed in range(3):
+    for seed in range(seeds):
         obs, _ = env.reset(seed=seed)
-        for _ in range(60):
+        for _ in range(steps):
             t, state = int(obs["relative_time"][0]), int(obs["state"])
             action = agent.act(obs, env.planning_model())
-            assert action == policy[t, state]
+            assert action == policy[t, state], (seed, t, state)
             obs, _, terminated, truncated, _ = env.step(action)
             if terminated or truncated:
                 break
+
+
+def test_a_change_at_step_0_is_unknown_to_the_first_decision():
+    """Bridge, p 1.0 -> 0.6 at step 0 (k = 0), γ = 0.9, H = 50.
+
+    ``thetas[0]`` already holds p = 0.6, but before transition 0 every planner still knows only
+    the θ at reset: the snapshot planner (``detailed``) crosses the bridge (RIGHT) on its first
+    move, and so does the stale one, though for p = 0.6 the safe road (LEFT) is better. The
+    exact values agree with played episodes; stale is not the oracle.
+    """
+    env = single_change_env(
+        "ns_pz/Bridge-v0", 1.0, 0.6, first_step=0, max_episode_steps=50, notification="detailed"
+    )
+    family, thetas, theta0 = env.family, theta_trajectory(env, 0), initial_theta(env)
+    assert thetas[0].slip == equal_split(0.6, 3) and theta0.slip == (1.0, 0.0, 0.0)
+    start = family.start_states[0]
+    policy = snapshot_policy(family, theta0, thetas, gamma=0.9)
+    stale = stale_policy(family, theta0, 50, gamma=0.9)
+    oracle = oracle_solution(family, thetas, gamma=0.9)
+    assert policy[0, start] == stale[0, start] == 2 and oracle.policy[0, start] == 0
+    assert_agent_plays(env, SnapshotValueIteration(gamma=0.9, horizon=50), policy, seeds=10)
+    exact = {
+        "snapshot": start_value(family, policy_values(family, thetas, policy, gamma=0.9)),
+        "stale": start_value(family, policy_values(family, thetas, stale, gamma=0.9)),
+    }
+    assert max(exact.values()) < start_value(family, oracle.values) - 0.3
+    for name, level in (("snapshot", "detailed"), ("stale", "none")):
+        env = single_change_env(
+            "ns_pz/Bridge-v0", 1.0, 0.6, first_step=0, max_episode_steps=50, notification=level
+        )
+        agent = SnapshotValueIteration(gamma=0.9, horizon=50)
+        episodes = [run_episode(env, agent, seed) for seed in range(300)]
+        # the Bridge pays only on entering a terminal cell, on the episode's last step
+        returns = [e.episode_return * 0.9 ** (e.length - 1) for e in episodes]
+        mean, se = mean_and_standard_error(returns)
+        assert abs(mean - exact[name]) < 4 * se, (name, mean, se, exact[name])
 
 
 def test_oracle_values_of_the_paper_single_change_settings_are_ordered():
@@ -243,7 +285,10 @@ def test_oracle_values_of_the_paper_single_change_settings_are_ordered():
         thetas = theta_trajectory(env, 0)
         value = start_value(env.family, oracle_solution(env.family, thetas).values)
         snap = start_value(
-            env.family, policy_values(env.family, thetas, snapshot_policy(env.family, thetas))
+            env.family,
+            policy_values(
+                env.family, thetas, snapshot_policy(env.family, initial_theta(env), thetas)
+            ),
         )
         assert -1.0 <= snap <= value <= 1.0
 
@@ -346,13 +391,60 @@ def test_robust_value_is_below_every_nature_inside_the_bound(env_id):
     assert (policy_values(family, thetas, robust.policy)[0] < robust.values[0] - 1e-6).any()
 
 
-def test_robust_interval_without_lipschitz_and_off_line_theta0():
-    """(a) a fixed interval; θ_0 off the equal-split line stays one of nature's options."""
+def test_robust_interval_without_lipschitz():
+    """A fixed interval [0.5, 0.9]: the ends and θ_0 itself never go below the guarantee."""
     family = ns_pz.make_gym("ns_pz/FrozenLake-v0").family
-    theta0 = FrozenLakeParams(slip=(0.7, 0.3, 0.0))
+    theta0 = FrozenLakeParams(slip=equal_split(0.7, 3))
     robust = robust_slip_solution(family, theta0, 50, low=0.5, high=0.9)
-    for thetas in ([theta0] * 50, [FrozenLakeParams(slip=equal_split(0.5, 3))] * 50):
-        achieved = policy_values(family, thetas, robust.policy)
+    for p in (0.5, 0.7, 0.9):
+        achieved = policy_values(
+            family, [FrozenLakeParams(slip=equal_split(p, 3))] * 50, robust.policy
+        )
         assert (robust.values <= achieved + 1e-9).all()
     with pytest.raises(TypeError, match="is not tabular"):
         robust_slip_solution(ns_pz.make_gym("ns_pz/CartPole-v0").family, theta0, 5)
+
+
+def test_robust_refuses_theta0_off_the_equal_split_line():
+    """Bridge θ_0 = (0.7, 0.3, 0), budget 0.3: the old solver's guarantee was false.
+
+    It "guaranteed" 0.64 from state 8 over 3 steps, while a nature that jumps to (0.4, 0.6, 0)
+    (TV 0.3, inside the budget) gets 0.496. Off the line nature's set is no segment; the solver
+    refuses such a θ_0 and names it. Rounding on the line is accepted.
+    """
+    family = BridgeFamily()
+    with pytest.raises(ValueError, match=r"theta0.slip=\(0.7, 0.3, 0.0\) is off the equal-split"):
+        robust_slip_solution(family, BridgeParams(slip=(0.7, 0.3, 0.0)), 3, budget=0.3)
+    with pytest.raises(ValueError, match=r"accepts only slip vectors \[p, \(1-p\)/2, ...\]"):
+        robust_slip_solution(family, BridgeParams(slip=(0.7, 0.2, 0.1)), 3, budget=0.3)
+    robust_slip_solution(family, BridgeParams(slip=(0.7, 0.15, 0.15)), 3, budget=0.3)
+
+
+def test_robust_guarantee_holds_for_every_nature_schedule_of_a_small_instance():
+    """Bridge, θ_0 on the line at p = 0.7, H = 5, L = 0.1, budget 0.3, nature from step 0.
+
+    Brute force over every schedule moving p by -0.1, -0.05, 0, 0.05 or 0.1 per step within the
+    budget (1,893 schedules): none gets the robust policy below its guaranteed value at any
+    state, and the worst of them reaches the guarantee at the start. A nature with the same
+    per-step and total TV that leaves the line (mass to one slip outcome only) gets below it.
+    """
+    family, horizon = BridgeFamily(), 5
+    theta0 = BridgeParams(slip=equal_split(0.7, 3))
+    robust = robust_slip_solution(family, theta0, horizon, lipschitz=0.1, budget=0.3)
+    worst = np.full(robust.values.shape[1], np.inf)
+    schedules = 0
+    for steps in itertools.product(range(-2, 3), repeat=horizon):  # in units of 0.05
+        if sum(map(abs, steps)) > 6:  # budget 0.3
+            continue
+        p_values = [min(1.0, round(0.7 + 0.05 * k, 12)) for k in np.cumsum(steps)]
+        thetas = [BridgeParams(slip=equal_split(p, 3)) for p in p_values]
+        worst = np.minimum(worst, policy_values(family, thetas, robust.policy)[0])
+        schedules += 1
+    assert schedules == 1893
+    assert (worst >= robust.values[0] - 1e-9).all()
+    start = family.start_states[0]
+    assert worst[start] == pytest.approx(robust.values[0, start], abs=1e-9)
+    off_line = [(0.6, 0.15, 0.25), (0.5, 0.15, 0.35), (0.4, 0.25, 0.35)]  # TV 0.1 per step
+    thetas = [BridgeParams(slip=v) for v in off_line + off_line[-1:] * 2]
+    achieved = policy_values(family, thetas, robust.policy)[0]
+    assert (achieved < robust.values[0] - 0.04).any()

@@ -14,6 +14,7 @@ from ns_pz.agents import run_episode, value_iteration
 from ns_pz.agents.search import MCTS, SearchAgent, uct, uct_tree
 from ns_pz.agents.search.compiled import compile_model, numba_available
 from ns_pz.agents.search.table_model import OutcomeTableModel
+from tables_for_tests import coin_table, table
 
 import ns_pz
 from ns_pz.family import EnvFamily
@@ -22,16 +23,6 @@ from ns_pz.planning import TabularOutcomes
 
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba (the fast extra) missing")
 BACKENDS = ["python", pytest.param("compiled", marks=needs_numba)]
-
-
-def table(rows: list[list[list[tuple[float, int, float, bool]]]]) -> TabularOutcomes:
-    """An outcome table from ``rows[s][a] = [(prob, next, reward, terminal), ...]``."""
-    probs, nxt, rew, term = (
-        np.array([[[o[i] for o in row] for row in by_s] for by_s in rows]) for i in range(4)
-    )
-    return TabularOutcomes(
-        probs.astype(float), nxt.astype(np.int64), rew.astype(float), term.astype(bool)
-    )
 
 
 def two_step_table() -> TabularOutcomes:
@@ -240,12 +231,73 @@ def test_compiled_rollouts_match_the_reference_model_step_for_step():
         assert steps == total_steps
 
 
-def test_uct_leaves_the_model_at_its_state():
-    """The search contract: the model is left at the root state."""
-    model = env_model("ns_pz/FrozenLake-v0")
-    state = model.get_state()
-    uct(model, state, np.random.default_rng(0), iterations=30, depth=10, backend="python")
-    assert model.get_state() == state
+class TouchyModel(OutcomeTableModel):
+    """A table model that records every call that would move it (``set_state``, ``step``)."""
+
+    def __init__(self, outcomes: TabularOutcomes, state: int, rng: np.random.Generator) -> None:
+        super().__init__(outcomes, state, rng)
+        self.moved = 0
+
+    def set_state(self, state: int) -> None:
+        """Record, then move."""
+        self.moved += 1
+        super().set_state(state)
+
+    def step(self, action: int) -> tuple[int, float, bool]:
+        """Record, then step."""
+        self.moved += 1
+        return super().step(action)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_uct_leaves_the_model_at_its_state(backend):
+    """The search contract: a model sitting elsewhere than the root is neither moved nor reset.
+
+    The model sits at state 4 and the search runs from state 0: a search that stepped the model
+    (``set_state`` + ``step``) or put it at the root afterwards would leave it elsewhere.
+    """
+    outcomes = env_model("ns_pz/FrozenLake-v0", params={"slip": (0.6, 0.2, 0.2)}).outcomes
+    model = TouchyModel(outcomes, 4, np.random.default_rng(0))
+    model.moved = 0
+    tree = uct_tree(model, 0, np.random.default_rng(1), iterations=50, depth=10, backend=backend)
+    assert tree.states[0] == 0 and tree.num_nodes > 5
+    assert model.get_state() == 4 and model.moved == 0
+
+
+def ucb_table(gap: float) -> TabularOutcomes:
+    """Root 0: action 0 pays 0 and ends, action 1 pays ``gap`` and ends."""
+    return table([[[(1.0, 1, 0.0, True)], [(1.0, 1, gap, True)]], [[(1.0, 1, 0.0, True)]] * 2])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_ucb_uses_the_log_of_the_parent_visits(backend):
+    """Four iterations, c = 1, terminal rewards 0 and 0.32 (no rollouts, no randomness).
+
+    Both actions are tried once, then UCB takes action 1 (equal bonuses). At N = 3 with
+    N(0) = 1 and N(1) = 2: sqrt(ln 3) = 1.0481 for action 0 against 0.32 + sqrt(ln 3 / 2) =
+    1.0611 for action 1, so action 1 again: visits [1, 3]. With ln(N + 1) instead the scores
+    would be 1.1774 and 1.1526, and action 0 taken: visits [2, 2].
+    """
+    model = OutcomeTableModel(ucb_table(0.32), 0, np.random.default_rng(0))
+    options = {"iterations": 4, "depth": 0, "c": 1.0, "gamma": 1.0, "backend": backend}
+    tree = uct_tree(model, 0, np.random.default_rng(5), **options)
+    assert tree.visits[0].tolist() == [1, 3]
+    np.testing.assert_array_equal(tree.q[0], [0.0, 0.32])
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_final_rules_disagree_where_the_most_visited_action_is_not_the_best(backend):
+    """Exploration c = 0, three iterations: action 1 pays 1 (greedy takes it again), then 0.
+
+    Root: visits [1, 2], Q [0.6, 0.5]. ``final="value"`` plays 0, ``final="visits"`` plays 1.
+    """
+    for final, expected in (("value", 0), ("visits", 1)):
+        model = OutcomeTableModel(coin_table(), 0, np.random.default_rng(2))
+        options = {"iterations": 3, "depth": 0, "c": 0.0, "final": final, "backend": backend}
+        result = uct(model, 0, np.random.default_rng(0), **options)
+        assert result.visits.tolist() == [1, 2]
+        np.testing.assert_array_equal(result.values, [0.6, 0.5])
+        assert result.action == expected, final
 
 
 @pytest.mark.parametrize(
@@ -300,15 +352,6 @@ def test_non_discrete_action_space_is_refused():
 
     with pytest.raises(TypeError, match="Discrete"):
         uct(Continuous(), 0, np.random.default_rng(0), iterations=2)
-
-
-@pytest.mark.parametrize("final", ["value", "visits"])
-def test_final_rule_chooses_by_value_or_visits(final):
-    """``final`` picks the argmax of the root's mean Q or of its visit counts."""
-    model = OutcomeTableModel(two_step_table(), 0, np.random.default_rng(0))
-    result = uct(model, 0, np.random.default_rng(3), iterations=20, depth=2, gamma=0.5, final=final)
-    best = np.argmax(result.values if final == "value" else result.visits)
-    assert result.action == best == 1
 
 
 def test_mcts_agent_plays_an_episode_reproducibly():

@@ -26,7 +26,7 @@ from ns_pz.agents.exact.robust import (
     robust_slip_solution,
     slip_intervals,
 )
-from ns_pz.agents.exact.schedule import theta_trajectory
+from ns_pz.agents.exact.schedule import initial_theta, theta_trajectory
 
 __all__ = [
     "FiniteHorizonSolution",
@@ -35,6 +35,7 @@ __all__ = [
     "backward_induction",
     "equal_split",
     "evaluate_policy",
+    "initial_theta",
     "oracle_agent",
     "oracle_solution",
     "outcome_tables",

@@ -6,9 +6,16 @@ All three are time-indexed policies solved by backward induction (ALGORITHMS.md 
   problem. Its value at the start state is the exact optimum in expectation: no agent, whatever
   it observes, can do better in expectation against that θ trajectory.
 * **snapshot replanning** ("DP-snapshot", a perfect planner at notification ``detailed``):
-  before transition ``t`` it knows θ_{t-1} (θ_0 at ``t = 0``: the one-step lag of DESIGN.md) and
-  acts as if that θ held until the horizon.
-* **stale** (a perfect planner at ``none`` / ``basic``): acts optimally for θ_0 throughout.
+  before transition ``t`` it knows θ_{t-1}, the θ of the transition it last saw (the one-step
+  lag of DESIGN.md), and acts as if that θ held until the horizon. Before transition 0 it knows
+  only the θ at reset, which is not ``thetas[0]`` when nature changes θ at step 0.
+* **stale** (a perfect planner at ``none`` / ``basic``): acts optimally for the θ at reset
+  throughout.
+
+Here ``thetas[t]`` is the θ in force during transition ``t`` (nature has moved at step ``t``),
+as :func:`~ns_pz.agents.exact.schedule.theta_trajectory` returns it, and the θ at reset is
+:func:`~ns_pz.agents.exact.schedule.initial_theta`: the two differ at ``t = 0`` exactly when
+nature's first move is at step 0.
 
 :func:`policy_values` evaluates any of them exactly against the true θ trajectory, and
 :class:`PolicyAgent` plays one in an environment (it reads the step from ``relative_time``).
@@ -63,20 +70,35 @@ def oracle_solution(
 
 
 def stale_policy(family: EnvFamily, theta0: Params, horizon: int, gamma: float = 1.0) -> np.ndarray:
-    """``[H, num_states]``: the optimal policy for θ_0 held fixed over ``horizon`` steps."""
+    """``[H, num_states]``: the optimal policy for ``theta0`` held fixed over ``horizon`` steps.
+
+    For the stale planner pass the θ at reset (:func:`~.schedule.initial_theta`), not
+    ``thetas[0]``, which already holds a change nature makes at step 0.
+    """
     return oracle_solution(family, [theta0] * horizon, gamma).policy
 
 
-def snapshot_policy(family: EnvFamily, thetas: Sequence[Params], gamma: float = 1.0) -> np.ndarray:
+def snapshot_policy(
+    family: EnvFamily, theta0: Params, thetas: Sequence[Params], gamma: float = 1.0
+) -> np.ndarray:
     """``[H, num_states]``: what snapshot replanning plays against ``thetas``.
 
-    Before transition ``t`` the planner knows θ_{t-1} (θ_0 at ``t = 0``) and plays step ``t`` of
-    the optimal policy for that θ held fixed over the whole horizon, exactly as
+    Before transition ``t >= 1`` the planner knows ``thetas[t - 1]``; before transition 0 it
+    knows ``theta0``. At each step it plays step ``t`` of the optimal policy for the θ it knows
+    held fixed over the whole horizon, exactly as
     :class:`~ns_pz.agents.planners.SnapshotValueIteration` with a ``horizon`` does at
     notification level ``detailed``.
+
+    Args:
+        family: A tabular family.
+        theta0: The θ at reset, before nature's move at step 0
+            (:func:`~ns_pz.agents.exact.schedule.initial_theta`). It differs from ``thetas[0]``
+            when nature changes θ at step 0, which the planner cannot know before acting.
+        thetas: θ of transitions ``0 .. H-1``.
+        gamma: Discount in ``[0, 1]``.
     """
     horizon = len(thetas)
-    known = [thetas[0], *thetas[:-1]]
+    known = [theta0, *thetas[:-1]]
     per_theta = {
         theta: oracle_solution(family, [theta] * horizon, gamma).policy for theta in set(known)
     }

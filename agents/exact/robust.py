@@ -1,13 +1,21 @@
 """Robust backward induction against a bounded nature on the slip probability.
 
-**Shape assumption.** The grid families' θ are slip vectors ``[p, rest...]`` whose first
-element ``p`` is the probability of the intended move. Every distribution rule nature uses
-(NS-Gym's and ns_pz's increment / decrement rules) splits ``1 - p`` equally over the other
-outcomes, so nature moves along the line ``θ(p) = [p, (1-p)/(n-1), ..., (1-p)/(n-1)]``
-(FrozenLake and Bridge: ``n = 3``, CliffWalking: ``n = 4``). On that line the total-variation
+**The natures covered.** The grid families' θ are slip vectors ``[p, rest...]`` whose first
+element ``p`` is the probability of the intended move. :func:`robust_slip_solution` covers the
+natures that keep every slip vector on the equal-split line
+``θ(p) = [p, (1-p)/(n-1), ..., (1-p)/(n-1)]`` (FrozenLake and Bridge: ``n = 3``, CliffWalking:
+``n = 4``), as ns_pz's and NS-Gym's increment / decrement rules and step-wise rules with
+equal-split targets do, starting from a θ_0 on that line. On the line the total-variation
 distance the ns_pz constraints measure is ``|p - p'|``, so a Lipschitz bound ``L`` per step and
 an episode budget ``B`` confine ``p_t`` to ``[p_0 - r_t, p_0 + r_t]`` with
 ``r_t = min(L · (number of nature moves up to t), B)``, intersected with ``[low, high]``.
+
+A nature that leaves the line is *not* covered, even within the same Lipschitz bound and
+budget: on the Bridge (``L = 0.1``, ``B = 0.3``, five steps) the schedule ``(0.7, 0.15, 0.15) ->
+(0.6, 0.15, 0.25) -> (0.5, 0.15, 0.35) -> (0.4, 0.25, 0.35)``, TV 0.1 per step, gets the robust
+policy 0.044 below its guarantee from one state. Nor is a θ_0 off the line (from
+``(0.7, 0.3, 0)`` with ``B = 0.3`` the old solver "guaranteed" 0.64 where ``(0.4, 0.6, 0)`` gets
+0.496), so such a θ_0 is refused.
 
 **Backup.** ``Q_t(s, a)`` is affine in θ, so its minimum over the convex hull of a few θ
 ("vertices") is reached at a vertex. :func:`robust_backward_induction` computes::
@@ -18,9 +26,10 @@ Nature may pick its vertex per (state, action, step), a superset of any one θ_t
 states, so ``V_0`` is a lower bound: by induction on ``t``, the robust policy's value against any
 nature whose θ_t lies in the hull at every step is ``>= V_t`` (its backup uses a θ inside the
 hull, whose value is at least the minimum over the vertices). The vertices at step ``t`` are
-``θ(lo_t)`` and ``θ(hi_t)``, plus θ_0 itself when θ_0 is not on the line and ``p_0`` lies in
-the interval (nature may leave it unchanged); for off-line θ_0 the TV ball around θ_0 is inside
-the ``|p - p_0| <= r_t`` interval used, so the bound stays valid, only less tight.
+``θ(lo_t)`` and ``θ(hi_t)``, whose segment is exactly where a covered nature can be. With
+several slip fields (the split Bridge) each field has its own interval and the vertices put
+every field at its low end, or every field at its high end; that suffices because each state's
+outcomes follow one field only, so each (state, action) backup is affine in that one field.
 
 This differs from RATS's nature (:mod:`ns_pz.agents.search.rats`), which moves the outcome
 distribution of each (state, action) within a Wasserstein ball over the Manhattan metric on the
@@ -137,13 +146,19 @@ def robust_slip_solution(
     first_change_step: int = 0,
     gamma: float = 1.0,
 ) -> FiniteHorizonSolution:
-    """Robust solution against a nature that moves every slip vector's intended probability.
+    """Robust solution against natures that move slip vectors along the equal-split line.
 
-    Every probability-vector field of θ gets its own interval around its own ``p_0`` (see
-    :func:`slip_intervals` for the arguments); the tail is split equally (module docstring).
+    Guaranteed value: against every nature that keeps each slip vector equal-split,
+    ``[p, (1-p)/(n-1), ...]``, and moves each field's ``p`` by at most ``lipschitz`` per move
+    (from step ``first_change_step`` on), by at most ``budget`` in total and inside
+    ``[low, high]``, the returned policy's expected value from state ``s`` before transition
+    ``t`` is at least ``values[t, s]``. Natures that leave the line are not covered (module
+    docstring). Every probability-vector field of θ gets its own interval around its own
+    ``p_0`` (see :func:`slip_intervals` for the arguments).
 
     Raises:
         TypeError: ``family`` is not tabular, or ``theta0`` has no probability-vector field.
+        ValueError: A slip vector of ``theta0`` is off the equal-split line.
     """
     outcomes_fn = getattr(family, "outcomes", None)
     if not callable(outcomes_fn):
@@ -151,6 +166,8 @@ def robust_slip_solution(
     fields = [spec for spec in theta0.specs() if spec.kind == SIMPLEX]
     if not fields:
         raise TypeError(f"theta0={theta0!r} has no slip vector (probability-vector field)")
+    for spec in fields:
+        _check_on_line(theta0, spec.name)
     intervals = {
         spec.name: slip_intervals(
             getattr(theta0, spec.name)[0],
@@ -181,18 +198,27 @@ def equal_split(p: float, size: int) -> tuple[float, ...]:
     return (p,) + ((1.0 - p) / (size - 1),) * (size - 1)
 
 
+def _check_on_line(theta0: Params, name: str) -> None:
+    """Refuse a slip vector of θ_0 off the equal-split line (up to rounding, 1e-12)."""
+    vector = getattr(theta0, name)
+    line = equal_split(vector[0], len(vector))
+    if not np.allclose(vector, line, rtol=0.0, atol=1e-12):
+        raise ValueError(
+            f"theta0.{name}={vector!r} is off the equal-split line: robust_slip_solution "
+            f"accepts only slip vectors [p, (1-p)/{len(vector) - 1}, ...] (here {line!r}), "
+            "the line the natures it covers keep to; its guarantee does not hold off it"
+        )
+
+
 def _vertices(theta0: Params, bounds: dict[str, tuple[float, float]]) -> list[Params]:
-    """θ at each vertex of one step: every slip field at its low end, its high end, and θ_0."""
+    """θ at each vertex of one step: every slip field at its low end, or at its high end."""
     per_field: dict[str, list[tuple[float, ...]]] = {}
     for name, (lo, hi) in bounds.items():
         original = getattr(theta0, name)
-        on_line = original == equal_split(original[0], len(original))
         if lo == hi == original[0]:
             options = [original]
         else:
             options = [equal_split(lo, len(original)), equal_split(hi, len(original))]
-            if not on_line and lo <= original[0] <= hi:
-                options.append(original)
         per_field[name] = options
     count = max(len(options) for options in per_field.values())
     return list(

@@ -69,6 +69,19 @@ def theta_trajectory(
     return tuple(thetas)
 
 
+def initial_theta(env: Any) -> Params:
+    """θ at reset, before nature's first move: what an agent plans with before transition 0.
+
+    ``theta_trajectory(env, seed)[0]`` is the θ of transition 0, after nature's move at step 0;
+    the two differ when a schedule changes θ at step 0. The stale planner plans with this θ
+    throughout, the snapshot planner before transition 0.
+
+    Raises:
+        TypeError: ``env`` is not an ns_pz environment (as :func:`theta_trajectory`).
+    """
+    return _process_of(env).theta0
+
+
 def check_horizon(horizon: object, default: int | None = None) -> int:
     """Validate a horizon (``None``: ``default``, which must then exist).
 

@@ -15,8 +15,10 @@ it (tree: decision nodes and chance nodes keyed by the sampled next state; actio
 * pessimistic base kernel P̃0(s, a): T0 if no outcome with T0 > 0 has a negative value;
   otherwise the Dirac on the worst outcome (lowest value, first on ties) when the real current
   state is not in danger, or, when it is, ``(1 - λ) T0 + λ Dirac`` with
-  ``λ = min(1, radius / W1(T0, Dirac))``, W1 under the Manhattan metric between grid cells.
-  The state is in danger when at least ``danger_threshold`` (action, next state) pairs of its
+  ``λ = min(1, radius / W1(T0, Dirac))``, W1 under the Manhattan metric between the cells the
+  outcomes' moves enter (the table's ``landing_cells``: on CliffWalking the cliff cell, not the
+  start it teleports the agent to, so a cliff next to the agent is near wherever the start is).
+  The state is in danger when at least ``danger_threshold`` (action, landing cell) pairs of its
   support have a negative value. An outcome's value is its reward (``failure_reward``, if set,
   replaces the reward of terminal outcomes with reward <= 0, e.g. -1 for FrozenLake's holes as
   in the original code);
@@ -40,7 +42,13 @@ from typing import Any
 
 import numpy as np
 from ns_pz.agents.base import Agent
-from ns_pz.agents.search.dirichlet import POOLINGS, DirichletLearner, aggregate, entropy
+from ns_pz.agents.search.dirichlet import (
+    POOLINGS,
+    DirichletLearner,
+    aggregate,
+    entropy,
+    epistemic,
+)
 from ns_pz.agents.search.mcts import check_uct_params, result_of, uct_tree
 from ns_pz.agents.search.table_model import OutcomeTableModel
 from ns_pz.agents.search.types import SearchResult
@@ -63,13 +71,22 @@ def manhattan(ncol: int) -> Distance:
 
 def pessimistic_kernel(
     probs: np.ndarray,
-    next_states: np.ndarray,
+    cells: np.ndarray,
     values: np.ndarray,
     danger: bool,
     radius: float,
     distance: Distance | None,
 ) -> np.ndarray:
     """P̃0 for every (s, a): ``[S, A, K]`` (see the module docstring).
+
+    Args:
+        probs: ``[S, A, K]`` the base kernel T0.
+        cells: ``[S, A, K]`` the cell each outcome lands on, between which ``distance``
+            measures (:attr:`TabularOutcomes.cells`).
+        values: ``[S, A, K]`` each outcome's value.
+        danger: Whether the real current state is in danger (mixture instead of Dirac).
+        radius: The W1 budget of the mixture.
+        distance: Ground metric between cells (needed when ``danger``).
 
     Raises:
         ValueError: ``danger`` needs a ground metric and ``distance`` is None.
@@ -83,8 +100,8 @@ def pessimistic_kernel(
                 "ADA-MCTS needs a ground metric for the W1 pessimism: the model's family has no "
                 "`ncol` (grid width); pass distance=f(cells_a, cells_b)"
             )
-        worst_next = np.take_along_axis(next_states, worst[..., None], axis=2)
-        w1 = (probs * distance(next_states, worst_next)).sum(axis=2)
+        worst_cell = np.take_along_axis(cells, worst[..., None], axis=2)
+        w1 = (probs * distance(cells, worst_cell)).sum(axis=2)
         ratio = np.divide(radius, w1, out=np.ones_like(w1), where=w1 > 0)
         lam = np.minimum(1.0, ratio)[..., None]
         pessimistic = (1.0 - lam) * probs + lam * dirac
@@ -267,7 +284,7 @@ class ADAMCTS(Agent):
         values = self._values(table)
         pessimistic = pessimistic_kernel(
             base,
-            table.next_states,
+            table.cells,
             values,
             self.in_danger(values, table, state),
             self.radius,
@@ -277,7 +294,7 @@ class ADAMCTS(Agent):
             return pessimistic
         atoms = learner.atoms
         base_atoms = aggregate(base, atoms)
-        eu_0 = (1.0 - (base_atoms * base_atoms).sum(axis=2)) / (self.base_concentration + 1.0)
+        eu_0 = epistemic(self.base_concentration * base_atoms)  # M0: Dirichlet(c · T0)
         eu_1 = learner.epistemic()
         learned = learner.mean()
         visited = learner.visits > 0
@@ -292,11 +309,10 @@ class ADAMCTS(Agent):
         return np.where(unsure, pessimistic, phase_two)
 
     def in_danger(self, values: np.ndarray, table: TabularOutcomes, state: int) -> bool:
-        """Whether ``state`` has ``danger_threshold`` negative (action, next state) pairs."""
+        """Whether ``state`` has ``danger_threshold`` negative (action, landing cell) pairs."""
         negative = values[state] < 0
         pairs = {
-            (a, int(table.next_states[state, a, k]))
-            for a, k in zip(*np.nonzero(negative), strict=True)
+            (a, int(table.cells[state, a, k])) for a, k in zip(*np.nonzero(negative), strict=True)
         }
         return len(pairs) >= self.danger_threshold
 
