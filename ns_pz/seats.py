@@ -29,9 +29,10 @@ from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.nature.policies import Nature
 from ns_pz.observations import monitor_flags_space, monitor_observation_space
-from ns_pz.process import AGENTS, DECISION, MONITOR, NATURE, NSProcess, check_seed
+from ns_pz.process import AGENTS, DECISION, MONITOR, NATURE, NSProcess
 from ns_pz.regret import NatureReward, RegretReference, default_reference
 from ns_pz.seat_policies import DecisionPolicy, check_policy
+from ns_pz.views import reset_seeded
 
 MonitorRewardFn = Callable[[NSProcess, tuple], float]
 """``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
@@ -182,13 +183,7 @@ class SeatEnv(gym.Env[Any, Any]):
             seed: Seeds the environment, nature, the monitor and the other seats' policies.
             options: ``{"params": θ_0}`` starts this episode from another θ_0.
         """
-        check_seed(seed)
-        super().reset(seed=seed)
-        process = self._process
-        if seed is not None or process.env_rng is None:
-            process.seed(self.np_random_seed)
-            self._np_random = process.env_rng
-        process.reset(options)
+        process = reset_seeded(self, self._process, seed, options)
         self._decide.reset(process.seat_rng())
         process.play_until(self.learner, self._decide)
         return self._observe(), {}

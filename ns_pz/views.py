@@ -93,18 +93,12 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         Args:
             seed: A non-negative int, or ``None`` to go on with the current generators.
             options: ``{"params": θ_0}`` starts this episode from another θ_0 (a parameter set
-                or a mapping of names to values); other keys are refused.
+                or a mapping of names to values); other keys are ignored with a warning.
 
         Raises:
-            TypeError / ValueError: A bad seed or an unknown option.
+            TypeError / ValueError: A bad seed or θ_0.
         """
-        check_seed(seed)
-        super().reset(seed=seed)
-        process = self._process
-        if seed is not None or process.env_rng is None:
-            process.seed(self.np_random_seed)
-            self._np_random = process.env_rng
-        process.reset(options)
+        process = reset_seeded(self, self._process, seed, options)
         process.play_until(DECISION)
         if self.render_mode == "human":
             self.render()
@@ -236,3 +230,24 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             f"NSGymEnv({process.family!r}, nature={process.nature!r}, "
             f"notification={process.level.value!r})"
         )
+
+
+def reset_seeded(
+    env: gym.Env[Any, Any], process: NSProcess, seed: int | None, options: dict[str, Any] | None
+) -> NSProcess:
+    """Gymnasium's reset of ``env`` (``np_random`` from ``seed``), then a new episode.
+
+    A seed reseeds every generator of the process, and the env's ``np_random`` becomes the
+    process's environment generator (what Gymnasium's checker compares); without a seed the
+    generators go on.
+
+    Raises:
+        TypeError / ValueError: A bad seed or θ_0.
+    """
+    check_seed(seed)
+    gym.Env.reset(env, seed=seed)
+    if seed is not None or process.env_rng is None:
+        process.seed(env.np_random_seed)
+        env._np_random = process.env_rng
+    process.reset(options)
+    return process
