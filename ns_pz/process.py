@@ -97,6 +97,7 @@ class NSProcess:
         self.monitor = OracleMonitor() if monitor is None else monitor
         if not isinstance(self.monitor, Monitor):
             raise TypeError(f"monitor={monitor!r} must be an ns_pz Monitor (e.g. OracleMonitor())")
+        self.monitor.bind(family, self.theta0)
         self.level = NotificationLevel.parse(notification)
         self.constraints = NatureConstraints() if constraints is None else constraints
         if not isinstance(self.constraints, NatureConstraints):

@@ -15,9 +15,14 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+
+from ns_pz.params import Params
+
+if TYPE_CHECKING:
+    from ns_pz.family import EnvFamily
 
 Flags = tuple[int, ...]
 Sizes = tuple[float, ...]
@@ -31,10 +36,36 @@ class Monitor(ABC):
             monitors set it; detectors must infer changes from observations.
         needs_observation: Whether :meth:`notify` needs the monitor observation (an oracle does
             not, which spares the Gymnasium view building it every step).
+        quiet_without_change: For a monitor that :attr:`reads_ground_truth`: whether it says
+            nothing on a transition without a true change, so the process may answer "no
+            change" without calling it (the exact oracle). A monitor with memory, delays or
+            false alarms sets it to ``False`` and is called at every transition.
     """
 
     reads_ground_truth: ClassVar[bool] = False
     needs_observation: ClassVar[bool] = True
+    quiet_without_change: ClassVar[bool] = True
+
+    def bind(self, family: EnvFamily, theta0: Params) -> None:  # noqa: B027 - optional hook
+        """Learn, once per environment, what the monitor may know before the episode starts.
+
+        Called by the process at construction with the family and θ_0, which every agent of the
+        game knows; a detector builds its reference model here (the family's planning model
+        under θ_0). The default does nothing. What a monitor keeps here must depend on the
+        family and θ_0 only: per-episode state belongs in :meth:`initial_memory`.
+
+        Raises:
+            TypeError: The monitor cannot work on this family (say why in the message).
+        """
+
+    def believed_theta(self, memory: Any) -> Params | None:
+        """θ the monitor believes in force now, from this episode's ``memory``.
+
+        ``None`` (the default) means no belief beyond what the notifications say. A detector
+        returns θ_0 updated by the changes it has detected: what an honest planner at
+        ``detailed`` may plan with when this monitor, not an oracle, informs it.
+        """
+        return None
 
     def initial_memory(self) -> Any:
         """Fresh per-episode memory (``None`` for a memoryless monitor)."""
@@ -79,3 +110,12 @@ class OracleMonitor(Monitor):
 
     def __repr__(self) -> str:
         return "OracleMonitor()"
+
+
+def has_transition(observation: dict[str, Any] | None) -> bool:
+    """Whether a monitor observation holds a transition (it does not at reset, ``t = 0``).
+
+    At reset ``last_action`` is the action space's null element and ``last_state`` equals
+    ``state``; that is no evidence about θ, and a detector must treat it as no data.
+    """
+    return observation is not None and float(observation["relative_time"][0]) > 0.0
