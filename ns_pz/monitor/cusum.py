@@ -58,7 +58,8 @@ class _ParamGrid:
     name: str
     values: tuple[Any, ...]
     probs: np.ndarray
-    """``[G, S, A, K]`` outcome probabilities with the parameter at each grid value."""
+    """``[S, A, G, K]`` outcome probabilities with the parameter at each grid value (grid axis
+    third, so one (state, action) is one contiguous block)."""
 
 
 class TabularCusumMemory:
@@ -68,7 +69,7 @@ class TabularCusumMemory:
 
     def __init__(self, theta0: Params, sizes: list[int], window: int) -> None:
         self.reference = theta0
-        """The believed θ."""
+        """θ believed when the current segment opened (θ_0 before any alarm)."""
         self.statistics = [np.zeros(size) for size in sizes]
         """``W_g`` of each watched parameter's grid."""
         self.restarts = [np.zeros(size, np.int64) for size in sizes]
@@ -154,7 +155,8 @@ class TabularCusumMonitor(Monitor):
             spec = family.params_cls.spec(name)
             values = _grid_values(spec, self.grid_step, self.scalar_points)
             probs = np.stack(
-                [_outcome_table(family, theta0.replace(**{name: v})).probs for v in values]
+                [_outcome_table(family, theta0.replace(**{name: v})).probs for v in values],
+                axis=2,
             )
             grids.append(_ParamGrid(name, values, probs))
         self._family = family
@@ -177,8 +179,10 @@ class TabularCusumMonitor(Monitor):
         return max(float(s.max()) for s in memory.statistics)
 
     def believed_theta(self, memory: TabularCusumMemory) -> Params:
-        """θ_0 updated by every change detected so far."""
-        return memory.reference
+        """θ_0 with the current segment's parameter at its posterior mean (θ_0 before any alarm)."""
+        if memory.segment is None:
+            return memory.reference
+        return self._posterior_mean(memory.reference, *memory.segment)
 
     def notify(
         self,
@@ -224,8 +228,6 @@ class TabularCusumMonitor(Monitor):
             if top > best:
                 best, best_index = top, index
         memory.trace.append(best)
-        if memory.segment is not None:
-            memory.reference = self._posterior_mean(memory.reference, *memory.segment)
         if not (impossible or best > self.threshold):
             return quiet
         return self._alarm(memory, best_index, transition)
@@ -234,7 +236,7 @@ class TabularCusumMonitor(Monitor):
         self, memory: TabularCusumMemory, index: int, transition: int
     ) -> tuple[Flags, Sizes]:
         """Open a segment for grid ``index``'s parameter; restart the CUSUMs; notify."""
-        old = memory.reference
+        old = self.believed_theta(memory)
         stat = memory.statistics[index]
         start = int(memory.restarts[index][int(np.argmax(stat))])
         grid = self._grids[index]
@@ -259,7 +261,7 @@ class TabularCusumMonitor(Monitor):
         """Probability of ``state --action--> reached`` under each grid point."""
         assert self._structure is not None
         hits = self._structure[state, action] == reached
-        return grid.probs[:, state, action, :][:, hits].sum(axis=1)
+        return grid.probs[state, action][:, hits].sum(axis=1)
 
     def _posterior_mean(self, theta: Params, index: int, log_weights: np.ndarray) -> Params:
         """``theta`` with grid ``index``'s parameter at its posterior mean under ``log_weights``."""
