@@ -399,3 +399,25 @@ def test_delayed_oracle_through_the_env():
     )
     alarms, changes, _ = _episode_alarms(env, 0, lambda obs, t: int(obs["state"][2] > 0))
     assert changes == (3,) and alarms == [5]
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="at detailed the process hands planners the true last θ whatever the monitor; with "
+    "a detector it must be monitor.believed_theta(memory) (lead's process.planning_theta)",
+)
+def test_planning_model_follows_the_detector_not_the_truth():
+    """A detector that has not alarmed yet leaves the planner at θ_0 (WD is honest)."""
+    env = ns_pz.make_gym(
+        "ns_pz/FrozenLake-v0",
+        params={"slip": (0.7, 0.15, 0.15)},
+        nature=ScriptedNature(
+            {"slip": DistributionStepWiseUpdate(DiscreteScheduler({1}), [(0.4, 0.3, 0.3)])}
+        ),
+        monitor=TabularCusumMonitor(threshold=1e6),
+        notification="detailed",
+    )
+    env.reset(seed=0)
+    env.step(1)
+    env.step(1)  # transition 1 ran under the new θ; the detector cannot know yet
+    assert env.planning_model().theta.slip == (0.7, 0.15, 0.15)
