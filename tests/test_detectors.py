@@ -14,7 +14,6 @@ import pytest
 from ns_pz.envs.cartpole import CartPoleFamily, CartPoleParams
 from ns_pz.envs.cliff_walking import CliffWalkingFamily, CliffWalkingParams
 from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
-from ns_pz.envs.mountain_car import MountainCarFamily, MountainCarParams
 from ns_pz.envs.pendulum import PendulumFamily
 
 import ns_pz
@@ -65,6 +64,7 @@ def cartpole_stream(theta0, theta1, change: int, steps: int, seed: int) -> Itera
 
 
 def run(monitor, stream) -> tuple[list[int], object]:
+    """Feed a stream to a fresh episode of ``monitor``: its alarms and final memory."""
     memory = monitor.initial_memory()
     rng = np.random.default_rng(0)
     for observation in stream:
@@ -86,6 +86,7 @@ def test_score_episode_rules():
 
 
 def test_detection_metrics_pools_episodes():
+    """Delays, misses and false alarms add up over episodes; the rate pools the steps."""
     summary = detection_metrics([([5], [5], 100), ([5], [9, 50], 100), ([], [1], 50)])
     assert (summary.episodes, summary.steps, summary.changes) == (3, 250, 2)
     assert (summary.detected, summary.missed, summary.false_alarms) == (2, 0, 2)
@@ -104,6 +105,7 @@ def test_detection_metrics_pools_episodes():
     ],
 )
 def test_score_episode_rejects_bad_input(kwargs, match):
+    """Bad times, steps or max_delay name the parameter."""
     with pytest.raises(ValueError, match=match):
         score_episode(**kwargs)
 
@@ -208,6 +210,7 @@ def test_tabular_cusum_reset_call_is_no_data():
 
 
 def test_tabular_cusum_checks_its_arguments_and_family():
+    """Bad arguments name the parameter; a family without outcome tables is refused."""
     with pytest.raises(ValueError, match="threshold=0"):
         TabularCusumMonitor(threshold=0)
     with pytest.raises(ValueError, match="grid_step=0.3 must divide 1"):
@@ -222,8 +225,10 @@ def test_tabular_cusum_checks_its_arguments_and_family():
 
 # -- prediction-error CUSUM ------------------------------------------------------------------
 def test_prediction_error_detects_a_small_cartpole_change():
-    """masspole 0.1 → 0.2 at 100 of 300 (10 runs): detected at once, no false alarm, and the
-    estimate ends within 1% of 0.2 (measured: delay 0, 0 false alarms)."""
+    """A pole twice as heavy, from 100 of 300 (10 runs): detected at once, no false alarm.
+
+    The estimate ends within 1% of 0.2 (measured: delay 0, 0 false alarms).
+    """
     monitor = PredictionErrorMonitor()
     monitor.bind(CartPoleFamily(), CartPoleParams())
     theta1 = CartPoleParams(masspole=0.2)
@@ -249,6 +254,7 @@ def test_prediction_error_is_silent_when_stationary():
 
 
 def test_prediction_error_checks_its_arguments_and_family():
+    """Bad arguments name the parameter; an observation that is not the state is refused."""
     with pytest.raises(ValueError, match="tolerance=-1"):
         PredictionErrorMonitor(tolerance=-1)
     with pytest.raises(ValueError, match="window=0"):
@@ -365,6 +371,7 @@ def _oracle_run(monitor, changes: set[int], steps: int, seed: int) -> list[int]:
 
 
 def test_noisy_oracle_delay_misses_and_false_alarms():
+    """Exact delays; miss and false-alarm frequencies near their probabilities; seeded."""
     exact = NoisyOracleMonitor(delay=3)
     assert _oracle_run(exact, {5, 40}, 100, seed=0) == [8, 43]
     missing = NoisyOracleMonitor(miss_probability=0.3)
@@ -377,6 +384,7 @@ def test_noisy_oracle_delay_misses_and_false_alarms():
 
 
 def test_noisy_oracle_checks_its_arguments():
+    """Bad probabilities and delays name the parameter."""
     with pytest.raises(ValueError, match="miss_probability=1.5"):
         NoisyOracleMonitor(miss_probability=1.5)
     with pytest.raises(TypeError, match="delay=1.5"):
@@ -391,6 +399,7 @@ def test_noisy_oracle_checks_its_arguments():
     "call monitors whose quiet_without_change is False at every transition (lead's cycle)",
 )
 def test_delayed_oracle_through_the_env():
+    """In the view, a change at 3 reported with delay 2 alarms at 5."""
     env = ns_pz.make_gym(
         "ns_pz/CartPole-v0",
         nature=ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({3}), [0.5])}),

@@ -39,12 +39,14 @@ name = "random"
 
 
 def write(folder: Path, text: str) -> Path:
+    """Write a spec file into ``folder``."""
     path = folder / "watched.toml"
     path.write_text(text)
     return path
 
 
 def test_detector_column_runs_the_named_monitor_at_its_level(tmp_path: Path) -> None:
+    """The WD cell builds the [monitor] at its level; other cells keep the oracle."""
     experiment = load_spec(write(tmp_path, WATCHED))
     assert [c.notification for c in experiment.cells()] == ["detailed", "none", "detector"]
     assert len(expand(experiment)) == 9
@@ -70,6 +72,7 @@ def test_a_spec_without_monitor_keeps_its_record(tmp_path: Path) -> None:
 
 
 def test_detector_trials_record_alarms_and_the_table_scores_them(tmp_path: Path) -> None:
+    """Rows carry alarm times; the report adds a detection table for the WD columns."""
     experiment = load_spec(write(tmp_path, WATCHED))
     summary = run_spec(experiment, tmp_path / "out", LocalBackend(1))
     assert summary.failed == 0
@@ -114,11 +117,13 @@ def test_detector_trials_record_alarms_and_the_table_scores_them(tmp_path: Path)
     ids=["unknown-name", "unknown-param", "level-none", "wrong-family", "no-table", "no-column"],
 )
 def test_bad_monitor_sections_are_refused(tmp_path: Path, edit, message: str) -> None:
+    """Each mistake in the monitor section is refused at load, naming the field."""
     with pytest.raises(SpecError, match=message):
         load_spec(write(tmp_path, edit(WATCHED)))
 
 
 def test_catalog_builds_monitors_and_names_what_is_allowed() -> None:
+    """Names build monitors; an unknown name lists the known ones."""
     assert isinstance(make_monitor("prediction_error", {"tolerance": 1e-3}), PredictionErrorMonitor)
     with pytest.raises(ValueError, match="known: oracle, noisy_oracle, cusum, prediction_error"):
         make_monitor("cusm")
