@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from ns_pz.family import EnvFamily
-from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition
+from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition, silence
 from ns_pz.params import SIMPLEX, Params, ParamSpec
 
 FLOOR = 1e-12
@@ -193,7 +193,7 @@ class TabularCusumMonitor(Monitor):
     ) -> tuple[Flags, Sizes]:
         """Update every CUSUM with the last transition; flag a parameter when its crosses ``h``."""
         count = len(memory.reference.names())
-        quiet: tuple[tuple[int, ...], tuple[float, ...]] = ((0,) * count, (0.0,) * count)
+        quiet = silence(count)
         if not has_transition(observation):
             return quiet
         assert observation is not None and self._structure is not None  # has_transition

@@ -54,7 +54,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
-from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition
+from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition, silence
 from ns_pz.params import SIMPLEX, Params
 
 DEFAULT_FACTORS = tuple(
@@ -205,7 +205,7 @@ class PredictionErrorMonitor(Monitor):
     ) -> tuple[Flags, Sizes]:
         """Add the last transition's error to the CUSUM; estimate and flag at an alarm."""
         count = len(memory.reference.names())
-        quiet: tuple[tuple[int, ...], tuple[float, ...]] = ((0,) * count, (0.0,) * count)
+        quiet = silence(count)
         if not has_transition(observation):
             return quiet
         assert observation is not None and self._family is not None

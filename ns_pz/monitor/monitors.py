@@ -119,3 +119,8 @@ def has_transition(observation: dict[str, Any] | None) -> bool:
     ``state``; that is no evidence about θ, and a detector must treat it as no data.
     """
     return observation is not None and float(observation["relative_time"][0]) > 0.0
+
+
+def silence(count: int) -> tuple[Flags, Sizes]:
+    """The notification "no change" for ``count`` parameters."""
+    return (0,) * count, (0.0,) * count

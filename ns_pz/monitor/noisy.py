@@ -19,7 +19,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition
+from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition, silence
 
 
 class NoisyOracleMemory:
@@ -90,7 +90,7 @@ class NoisyOracleMonitor(Monitor):
             raise RuntimeError("NoisyOracleMonitor.notify needs the true change sizes (truth=None)")
         count = len(truth)
         if not has_transition(observation):
-            return (0,) * count, (0.0,) * count
+            return silence(count)
         assert observation is not None
         transition = int(observation["relative_time"][0]) - 1
         miss_draw, false_draw = rng.random(2)
@@ -106,8 +106,8 @@ class NoisyOracleMonitor(Monitor):
         if not changed and false_draw < self.false_alarm_probability:
             flagged = int(false_draw / self.false_alarm_probability * count) % count
             memory.alarms.append(transition)
-            return tuple(int(i == flagged) for i in range(count)), (0.0,) * count
-        return (0,) * count, (0.0,) * count
+            return tuple(int(i == flagged) for i in range(count)), silence(count)[1]
+        return silence(count)
 
     def __repr__(self) -> str:
         return (
