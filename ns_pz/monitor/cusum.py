@@ -192,8 +192,7 @@ class TabularCusumMonitor(Monitor):
         rng: np.random.Generator,
     ) -> tuple[Flags, Sizes]:
         """Update every CUSUM with the last transition; flag a parameter when its crosses ``h``."""
-        count = len(memory.reference.names())
-        quiet = silence(count)
+        quiet = silence(len(memory.reference.names()))
         if not has_transition(observation):
             return quiet
         assert observation is not None and self._structure is not None  # has_transition
