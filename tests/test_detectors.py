@@ -14,7 +14,7 @@ import pytest
 from ns_pz.envs.cartpole import CartPoleFamily, CartPoleParams
 from ns_pz.envs.cliff_walking import CliffWalkingFamily, CliffWalkingParams
 from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
-from ns_pz.envs.pendulum import PendulumFamily
+from ns_pz.envs.mountain_car import MountainCarContinuousFamily
 
 import ns_pz
 from ns_pz.monitor import (
@@ -259,8 +259,9 @@ def test_prediction_error_checks_its_arguments_and_family():
         PredictionErrorMonitor(tolerance=-1)
     with pytest.raises(ValueError, match="window=0"):
         PredictionErrorMonitor(window=0)
+    car = MountainCarContinuousFamily()  # its state holds a flag the observation does not show
     with pytest.raises(TypeError, match="state_from_observation"):
-        PredictionErrorMonitor().bind(PendulumFamily(), PendulumFamily().default_params())
+        PredictionErrorMonitor().bind(car, car.default_params())
     with pytest.raises(ValueError, match="probability vector"):
         PredictionErrorMonitor(params=["slip"]).bind(FrozenLakeFamily(), FL0)
 
@@ -311,8 +312,24 @@ def _episode_alarms(env, seed: int, policy) -> tuple[list[int], tuple[int, ...],
             lambda obs, t: 2 if obs["state"][1] >= 0 else 0,
             1,
         ),
+        (  # the state is read back from cos/sin observations (state_from_observation)
+            "ns_pz/Pendulum-v0",
+            {},
+            ScriptedNature({"mass": StepWiseUpdate(DiscreteScheduler({50}), [1.5])}),
+            PredictionErrorMonitor(),
+            lambda obs, t: np.array([np.sin(t / 7.0) * 2.0], np.float32),
+            1,
+        ),
+        (
+            "ns_pz/Acrobot-v0",
+            {},
+            ScriptedNature({"link_mass_2": StepWiseUpdate(DiscreteScheduler({50}), [1.5])}),
+            PredictionErrorMonitor(),
+            lambda obs, t: (t // 10) % 3,
+            1,
+        ),
     ],
-    ids=["cliffwalking", "cartpole", "mountaincar"],
+    ids=["cliffwalking", "cartpole", "mountaincar", "pendulum", "acrobot"],
 )
 def test_detectors_through_the_env(env_id, params, nature, monitor, policy, bound):
     """A single change in the Gymnasium view: detected within ``bound`` steps, no false alarm."""

@@ -38,9 +38,11 @@ the reference. Otherwise it is an alarm for a new change, and a new segment star
 An alarm's notification flags the parameter the fit changed, with the change size between the
 previous reference and the fit (or flags every parameter, size 0, if no fit predicts better).
 
-A family whose observation is not its state (Pendulum and Acrobot observe angles as cos/sin)
-must provide ``state_from_observation(observation) -> state``; families whose observation is
-the state vector itself (CartPole, MountainCar) need nothing.
+A family whose observation is not its state provides ``state_from_observation(observation)
+-> state`` (Pendulum and Acrobot read their angles back from cos/sin); families whose
+observation is the state vector itself (CartPole, MountainCar) need nothing. Others
+(MountainCarContinuous, whose state holds a flag the observation does not show) are refused
+at :meth:`PredictionErrorMonitor.bind`.
 """
 
 from __future__ import annotations
