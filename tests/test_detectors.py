@@ -219,8 +219,20 @@ def test_tabular_cusum_checks_its_arguments_and_family():
         TabularCusumMonitor(window=0)
     with pytest.raises(TypeError, match="no explicit outcome table"):
         TabularCusumMonitor().bind(CartPoleFamily(), CartPoleParams())
-    with pytest.raises(RuntimeError, match="not bound"):
+    with pytest.raises(RuntimeError, match="TabularCusumMonitor is not bound"):
         TabularCusumMonitor().initial_memory()
+
+
+def test_a_detector_serves_many_envs_of_one_theta0_only():
+    """Same family and θ_0: one instance, independent memories; another θ_0 is refused."""
+    monitor = TabularCusumMonitor()
+    first = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": FL0.slip}, monitor=monitor)
+    second = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": FL0.slip}, monitor=monitor)
+    first.reset(seed=0)
+    second.reset(seed=1)
+    assert first._process.monitor_memory is not second._process.monitor_memory
+    with pytest.raises(ValueError, match="give .* its own instance"):
+        ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": FL1.slip}, monitor=monitor)
 
 
 # -- prediction-error CUSUM ------------------------------------------------------------------

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from ns_pz.family import EnvFamily
-from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition, silence
+from ns_pz.monitor.monitors import Detector, Flags, Sizes, has_transition, silence
 from ns_pz.params import SIMPLEX, Params, ParamSpec
 
 FLOOR = 1e-12
@@ -84,7 +84,7 @@ class TabularCusumMemory:
         """The statistic ``max_g W_g`` after each transition (before a restart)."""
 
 
-class TabularCusumMonitor(Monitor):
+class TabularCusumMonitor(Detector):
     """GLR-CUSUM over a grid of θ on a tabular family's outcome table (see the module doc).
 
     Args:
@@ -130,8 +130,6 @@ class TabularCusumMonitor(Monitor):
         self.scalar_points = scalar_points
         self.window = window
         self.watched = None if params is None else tuple(params)
-        self._family: EnvFamily | None = None
-        self._theta0: Params | None = None
         self._grids: tuple[_ParamGrid, ...] = ()
         self._structure: np.ndarray | None = None
         self._theta0_probs: np.ndarray | None = None
@@ -143,9 +141,10 @@ class TabularCusumMonitor(Monitor):
             TypeError: The family has no explicit outcome table (use
                 :class:`~ns_pz.monitor.PredictionErrorMonitor` on continuous families).
             UnknownParam: A watched name is not a parameter.
-            ValueError: A watched scalar parameter has an infinite bound.
+            ValueError: A watched scalar parameter has an infinite bound; already bound to
+                another family or θ_0.
         """
-        if self._family is family and self._theta0 == theta0:
+        if self._already_bound(family, theta0):
             return
         names = family.params_cls.names() if self.watched is None else self.watched
         family.params_cls.check_names(names)
@@ -167,12 +166,9 @@ class TabularCusumMonitor(Monitor):
 
     def initial_memory(self) -> TabularCusumMemory:
         """θ_0 as the reference, every CUSUM at 0."""
-        if self._family is None or self._theta0 is None:
-            raise RuntimeError(
-                "TabularCusumMonitor is not bound to an environment; pass it as monitor= to "
-                "an ns_pz environment (which calls bind(family, theta0))"
-            )
-        return TabularCusumMemory(self._theta0, [len(g.values) for g in self._grids], self.window)
+        return TabularCusumMemory(
+            self._bound_theta0(), [len(g.values) for g in self._grids], self.window
+        )
 
     def statistic(self, memory: TabularCusumMemory) -> float:
         """The detection statistic ``max_g W_g`` now (0 right after a reset or an alarm)."""

@@ -56,7 +56,7 @@ import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
-from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition, silence
+from ns_pz.monitor.monitors import Detector, Flags, Sizes, has_transition, silence
 from ns_pz.params import SIMPLEX, Params
 
 DEFAULT_FACTORS = tuple(
@@ -86,7 +86,7 @@ class PredictionErrorMemory:
         """The CUSUM statistic after each transition (before a restart at an alarm)."""
 
 
-class PredictionErrorMonitor(Monitor):
+class PredictionErrorMonitor(Detector):
     """CUSUM on the θ_0 planning model's one-step prediction error (see the module doc).
 
     Args:
@@ -121,8 +121,6 @@ class PredictionErrorMonitor(Monitor):
         self.window = window
         self.factors = tuple(float(f) for f in factors)
         self.watched = None if params is None else tuple(params)
-        self._family: EnvFamily | None = None
-        self._theta0: Params | None = None
         self._names: tuple[str, ...] = ()
 
     def bind(self, family: EnvFamily, theta0: Params) -> None:
@@ -132,8 +130,11 @@ class PredictionErrorMonitor(Monitor):
             TypeError: The observation does not give the state back, and the family has no
                 ``state_from_observation``.
             UnknownParam: A watched name is not a parameter.
-            ValueError: A watched parameter is a probability vector.
+            ValueError: A watched parameter is a probability vector; already bound to another
+                family or θ_0.
         """
+        if self._already_bound(family, theta0):
+            return
         names = (
             tuple(s.name for s in family.params_cls.specs() if s.kind != SIMPLEX)
             if self.watched is None
@@ -169,12 +170,7 @@ class PredictionErrorMonitor(Monitor):
 
     def initial_memory(self) -> PredictionErrorMemory:
         """θ_0 as the reference, the CUSUM at 0."""
-        if self._theta0 is None:
-            raise RuntimeError(
-                "PredictionErrorMonitor is not bound to an environment; pass it as monitor= "
-                "to an ns_pz environment (which calls bind(family, theta0))"
-            )
-        return PredictionErrorMemory(self._theta0, self.window)
+        return PredictionErrorMemory(self._bound_theta0(), self.window)
 
     def believed_theta(self, memory: PredictionErrorMemory) -> Params:
         """θ_0 updated by every change detected so far."""

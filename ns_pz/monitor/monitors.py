@@ -112,6 +112,47 @@ class OracleMonitor(Monitor):
         return "OracleMonitor()"
 
 
+class Detector(Monitor):
+    """Base of the honest detectors: bound to one family and θ_0, which they may know.
+
+    A detector builds its reference model in :meth:`bind` and keeps every episode's state in
+    its memory, so one instance serves any number of environments of the same family and θ_0
+    (a vector of envs, the game and its view). Binding it to another family or θ_0 raises: its
+    reference would silently change under the environments already using it.
+    """
+
+    _family: EnvFamily | None = None
+    _theta0: Params | None = None
+
+    def _already_bound(self, family: EnvFamily, theta0: Params) -> bool:
+        """Whether ``bind`` has nothing to do (bound to the same family and θ_0 already).
+
+        Raises:
+            ValueError: Bound to another family or θ_0.
+        """
+        if self._family is None:
+            return False
+        if repr(family) == repr(self._family) and theta0 == self._theta0:
+            return True
+        raise ValueError(
+            f"{type(self).__name__} is bound to {self._family!r} with θ_0 = {self._theta0!r}; "
+            f"give {family!r} with θ_0 = {theta0!r} its own instance"
+        )
+
+    def _bound_theta0(self) -> Params:
+        """θ_0 of the bound environment.
+
+        Raises:
+            RuntimeError: Not bound yet.
+        """
+        if self._theta0 is None:
+            raise RuntimeError(
+                f"{type(self).__name__} is not bound to an environment; pass it as monitor= to "
+                "an ns_pz environment (which calls bind(family, theta0))"
+            )
+        return self._theta0
+
+
 def has_transition(observation: dict[str, Any] | None) -> bool:
     """Whether a monitor observation holds a transition (it does not at reset, ``t = 0``).
 
