@@ -81,6 +81,8 @@ def test_detector_trials_record_alarms_and_the_table_scores_them(tmp_path: Path)
     assert len(wd) == 3 and all(r["alarm_times"] is not None for r in wd)
     won = [r for r in rows if r["notification"] == "WON"]
     assert all(r["alarm_times"] == "[]" for r in won)  # at level none nothing is told
+    wn = [r for r in rows if r["notification"] == "WN" and r["length"] > 2]
+    assert wn and all(r["alarm_times"] == r["change_times"] == "[1]" for r in wn)  # oracle: 0
     scores = detection_summaries(rows)
     assert list(scores) == [("random", "p=0.4 WD")]
     assert scores[("random", "p=0.4 WD")].changes == 3
