@@ -170,10 +170,6 @@ class TabularCusumMonitor(Detector):
             self._bound_theta0(), [len(g.values) for g in self._grids], self.window
         )
 
-    def statistic(self, memory: TabularCusumMemory) -> float:
-        """The detection statistic ``max_g W_g`` now (0 right after a reset or an alarm)."""
-        return max(float(s.max()) for s in memory.statistics)
-
     def believed_theta(self, memory: TabularCusumMemory) -> Params:
         """θ_0 with the current segment's parameter at its posterior mean (θ_0 before any alarm)."""
         if memory.segment is None:

@@ -18,7 +18,10 @@ Why not river's Page–Hinkley or ADWIN: both learn the pre-change level from th
 a warm-up (``min_instances``, a window on each side of the cut); in the shipped settings the
 change hits the second transition, so there is no pre-change stream to learn from. Here the
 pre-change behaviour is known exactly (the θ_0 model), which is what a CUSUM with a known
-reference uses, in a dozen lines.
+reference uses, in a dozen lines. Measured with river 0.26.1: on 0 then 300 ones (a step at
+the second sample), neither ``PageHinkley(min_instances=1)`` nor ``ADWIN()`` flagged a drift;
+``import river.drift`` took 0.85 s and loads scipy. (Its detectors would fit the per-episode
+memory design, one fresh object per episode; the warm-up is what rules them out.)
 
 When the CUSUM crosses, the detector fits θ to the transitions since the CUSUM last stood at
 0 (the change-time estimate of a CUSUM): for each watched parameter, every value of a grid
