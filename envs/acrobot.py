@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -142,7 +141,7 @@ class AcrobotFamily(EnvFamily):
             (math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2), d1, d2), dtype=np.float32
         )
 
-    def state_from_observation(self, observation: Any) -> State:
+    def state_from_observation(self, observation: np.ndarray) -> State:
         """The state an observation shows: both angles (in (-π, π]) from their cos and sin.
 
         The dynamics wrap the angles and use them only through sin and cos, so this is the

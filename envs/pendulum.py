@@ -103,7 +103,7 @@ class PendulumFamily(EnvFamily):
         angle, velocity = state
         return np.array((math.cos(angle), math.sin(angle), velocity), dtype=np.float32)
 
-    def state_from_observation(self, observation: Any) -> State:
+    def state_from_observation(self, observation: np.ndarray) -> State:
         """The state an observation shows: the angle (in (-π, π]) from its cos and sin.
 
         Dynamics and observations depend on the angle only through sin and cos, so the state

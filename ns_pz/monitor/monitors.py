@@ -15,14 +15,12 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
+from ns_pz.family import EnvFamily
 from ns_pz.params import Params
-
-if TYPE_CHECKING:
-    from ns_pz.family import EnvFamily
 
 Flags = tuple[int, ...]
 Sizes = tuple[float, ...]
@@ -44,19 +42,18 @@ class Monitor(ABC):
 
     reads_ground_truth: ClassVar[bool] = False
     needs_observation: ClassVar[bool] = True
-    quiet_without_change: ClassVar[bool] = True
 
     def bind(self, family: EnvFamily, theta0: Params) -> None:  # noqa: B027 - optional hook
-        """Learn, once per environment, what the monitor may know before the episode starts.
+        """Learn, when an environment is built, what a monitor may know before any data.
 
-        Called by the process at construction with the family and θ_0, which every agent of the
-        game knows; a detector builds its reference model here (the family's planning model
-        under θ_0). The default does nothing. What a monitor keeps here must depend on the
-        family and θ_0 only: per-episode state belongs in :meth:`initial_memory`.
-
-        Raises:
-            TypeError: The monitor cannot work on this family (say why in the message).
+        That is the family (spaces, the planning model under θ_0) and θ_0, nothing else.
         """
+
+    def initial_memory(self) -> Any:
+        """Fresh per-episode memory (``None`` for a memoryless monitor)."""
+        return None
+
+    quiet_without_change: ClassVar[bool] = True
 
     def believed_theta(self, memory: Any) -> Params | None:
         """θ the monitor believes in force now, from this episode's ``memory``.
@@ -65,10 +62,6 @@ class Monitor(ABC):
         returns θ_0 updated by the changes it has detected: what an honest planner at
         ``detailed`` may plan with when this monitor, not an oracle, informs it.
         """
-        return None
-
-    def initial_memory(self) -> Any:
-        """Fresh per-episode memory (``None`` for a memoryless monitor)."""
         return None
 
     @abstractmethod
