@@ -15,12 +15,23 @@ from ns_pz.views import NSGymEnv
 
 @dataclass(frozen=True)
 class Episode:
-    """One evaluation episode."""
+    """One evaluation episode.
+
+    Attributes:
+        seed: The episode's seed.
+        episode_return: Sum of the rewards.
+        length: Transitions.
+        change_times: True change times (transition indices, from the ground truth).
+        alarm_times: Transitions ``t`` after which the agent's observation (``relative_time``
+            ``t + 1``) had a change flag raised: the alarms as
+            :func:`ns_pz.monitor.detection_metrics` scores them (none at level ``none``).
+    """
 
     seed: int
     episode_return: float
     length: int
     change_times: tuple[int, ...]
+    alarm_times: tuple[int, ...] = ()
 
 
 def run_episode(env: NSGymEnv, agent: Agent, seed: int) -> Episode:
@@ -31,6 +42,7 @@ def run_episode(env: NSGymEnv, agent: Agent, seed: int) -> Episode:
     observation, _ = env.reset(seed=seed)
     agent.reset(np.random.default_rng([seed, 0xA6E]))  # a stream apart from the env's
     total, length, done = 0.0, 0, False
+    alarms = []
     while not done:
         model = env.planning_model() if agent.needs_model else None
         action = agent.act(observation, model)
@@ -38,9 +50,11 @@ def run_episode(env: NSGymEnv, agent: Agent, seed: int) -> Episode:
         agent.observe(observation, action, float(reward), next_observation, terminated)
         observation = next_observation
         total += float(reward)
+        if observation["env_change"].any():
+            alarms.append(length)
         length += 1
         done = terminated or truncated
-    return Episode(seed, total, length, env.ground_truth().change_times)
+    return Episode(seed, total, length, env.ground_truth().change_times, tuple(alarms))
 
 
 def evaluate(

@@ -164,6 +164,16 @@ class AcrobotFamily(EnvFamily):
             (math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2), d1, d2), dtype=np.float32
         )
 
+    def state_from_observation(self, observation: np.ndarray) -> State:
+        """The state an observation shows: both angles (in (-π, π]) from their cos and sin.
+
+        The dynamics wrap the angles and use them only through sin and cos, so this is the
+        state up to the wrapping: what a detector predicting the next observation needs (see
+        :class:`~ns_pz.monitor.PredictionErrorMonitor`).
+        """
+        c1, s1, c2, s2, d1, d2 = (float(x) for x in observation)
+        return (math.atan2(s1, c1), math.atan2(s2, c2), d1, d2)
+
     def __repr__(self) -> str:
         return f"AcrobotFamily(torque_noise_max={self.torque_noise_max!r})"
 

@@ -123,3 +123,13 @@ class PendulumFamily(EnvFamily):
         """``[cos θ, sin θ, θ̇]`` as float32."""
         angle, velocity = state
         return np.array((math.cos(angle), math.sin(angle), velocity), dtype=np.float32)
+
+    def state_from_observation(self, observation: np.ndarray) -> State:
+        """The state an observation shows: the angle (in (-π, π]) from its cos and sin.
+
+        Dynamics and observations depend on the angle only through sin and cos, so the state
+        differs from the true one by a multiple of 2π at most: what a detector predicting the
+        next observation needs (see :class:`~ns_pz.monitor.PredictionErrorMonitor`).
+        """
+        cos, sin, velocity = (float(x) for x in observation)
+        return (math.atan2(sin, cos), velocity)

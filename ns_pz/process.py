@@ -329,7 +329,7 @@ class NSProcess:
         monitor = self.monitor
         truth = None
         if monitor.reads_ground_truth:
-            if self.last_change is None:
+            if self.last_change is None and monitor.quiet_without_change:
                 return self.no_change, self.no_change
             truth = self.last_sizes()
         observation = self.build.monitor(self) if monitor.needs_observation else None
@@ -492,10 +492,19 @@ class NSProcess:
     def planning_theta(self) -> Params:
         """θ the agent's planning model assumes: θ_0, or at ``detailed`` the latest θ it knows.
 
-        That is the θ behind the last transition, never one nature has chosen for a transition
-        still to come: in the game the agent plans after nature's turn, and must not see it.
+        At ``detailed`` an oracle monitor tells the θ behind the last transition (never one
+        nature has chosen for a transition still to come: in the game the agent plans after
+        nature's turn, and must not see it); a detector tells what it believes
+        (:meth:`~ns_pz.monitor.Monitor.believed_theta`, θ_0 if it believes nothing yet), so
+        a planner is never handed more than its monitor knows.
         """
-        return self.last_theta if self.level.shows_sizes else self.theta0
+        if not self.level.shows_sizes:
+            return self.theta0
+        monitor = self.monitor
+        if monitor.reads_ground_truth:
+            return self.last_theta
+        believed = monitor.believed_theta(self.monitor_memory)
+        return self.theta0 if believed is None else believed
 
     def planning_rng(self) -> np.random.Generator:
         """A fresh generator for one planning model, from the seed (deterministic sequence)."""

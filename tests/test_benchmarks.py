@@ -31,3 +31,17 @@ def test_search_benchmark_smoke_run(tmp_path):
     assert "One MCTS decision" in out and "Model step in the rollout loop" in out
     for setting in ("FrozenLake m=5 d=100", "CliffWalking m=50 d=200", "CartPole m=15 d=500"):
         assert setting in out
+
+
+def test_detector_benchmark_smoke_run():
+    """bench_detectors.py --smoke scores every setting of the three single-change specs."""
+    bench = BENCH.parent / "bench_detectors.py"
+    out = subprocess.run(
+        [sys.executable, str(bench), "--smoke", "--agents", "random"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    for row in ("| frozenlake-single | cusum | p=0.4 | random | 2 |", "| cartpole-single | "):
+        assert row in out
+    assert out.count("| cliffwalking-single | cusum |") == 3

@@ -5,17 +5,23 @@ detailed notification, ``WON`` = without); each entry is the mean episode return
 error (ddof=1) over the cell's episodes. Where the exact optimum of a cell is known (tabular
 envs: finite-horizon value iteration knowing the schedule), an ``optimum`` row gives it and a
 second table gives each agent's regret to it (optimum − mean).
+
+Where a detector ran (the ``WD`` columns), a detection table gives, per agent and detector
+column, the mean detection delay, the false alarms per 1,000 steps and the missed changes, as
+:func:`ns_pz.monitor.detection_metrics` scores the trials' change and alarm times.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ns_pz.agents.evaluation import mean_and_standard_error
-from ns_pz.experiments.spec import LEVEL_LABELS
+from ns_pz.experiments.spec import DETECTOR, LEVEL_LABELS
+from ns_pz.monitor.scoring import DetectionSummary, detection_metrics
 
 #: ``optimum(setting, notification) -> value or None``.
 Optimum = Callable[[str, str], float | None]
@@ -122,7 +128,49 @@ def table(
                 )
             regret.append([agent, *cells])
         parts.append(render(f"{title}: regret to the optimum", ["agent", *columns], regret))
+    detection = detection_summaries(rows)
+    if detection:
+        watched = [c for c in columns if any(k[1] == c for k in detection)]
+        body = [
+            [agent, *(_detection_entry(detection.get((agent, c)), digits) for c in watched)]
+            for agent in agents
+        ]
+        heading = f"{title}: detection (mean delay in steps, false alarms per 1,000 steps, missed)"
+        parts.append(render(heading, ["agent", *watched], body))
     return "\n\n".join(parts)
+
+
+def detection_summaries(
+    rows: Sequence[Mapping[str, Any]],
+) -> dict[tuple[str, str], DetectionSummary]:
+    """Detection scores of every (agent, column) whose detector ran (``WD`` columns).
+
+    Rows without alarm times (failed trials, results written before they were recorded) are
+    left out.
+    """
+    label = LEVEL_LABELS[DETECTOR]
+    episodes: dict[tuple[str, str], list[tuple[list[int], list[int], int]]] = {}
+    for row in sorted(rows, key=lambda r: r["trial"]):
+        if row["notification"] != label or row["status"] != "ok" or not row.get("alarm_times"):
+            continue
+        key = (row["agent"], f"{row['setting']} {row['notification']}")
+        episode = (
+            json.loads(row["change_times"]),
+            json.loads(row["alarm_times"]),
+            int(row["length"]),
+        )
+        episodes.setdefault(key, []).append(episode)
+    return {key: detection_metrics(value) for key, value in episodes.items()}
+
+
+def _detection_entry(summary: DetectionSummary | None, digits: int) -> str:
+    if summary is None:
+        return "n/a"
+    delay = "n/a" if summary.detected == 0 else f"{summary.mean_delay:.{min(digits, 1)}f}"
+    return (
+        f"{delay} / {summary.false_alarms_per_1000:.{min(digits, 1)}f} / "
+        f"{summary.missed} of {summary.changes}"
+    )
 
 
 def _entry(summary: Summary | None, digits: int) -> str:

@@ -20,12 +20,22 @@ A spec is a TOML file::
     episodes = 30
     horizon = 100
 
+    [monitor]                            # optional: the detector of the "detector" column
+    name = "cusum"                       # a name of ns_pz.monitor.catalog
+    level = "detailed"                   # what of its notification reaches the agent
+    params = { threshold = 10.0 }
+
     [[agents]]
     name = "mcts"                        # a name of ns_pz.agents.catalog
     label = "MCTS"                       # how tables call it (default: the name)
     params = { c = 1.4142 }              # hyper-parameters for every size
     quick = { iterations = 100 }         # ... overridden per size
     notifications = ["none"]             # optional: the levels this agent runs at
+
+``notifications`` lists the columns: the levels ``"none"`` (WON), ``"basic"``, ``"detailed"``
+(WN: the exact oracle) and ``"detector"`` (WD): the ``[monitor]`` table's monitor, honest,
+telling the agent what it detects at that table's ``level``. An agent runs in the detector column
+if it runs at that level.
 
 A scalar given for a probability vector means its first entry (the intended outcome) with the
 rest split equally over the other outcomes, the NS-Gym rule; a list gives the vector itself.
@@ -44,7 +54,7 @@ import json
 import math
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -55,6 +65,8 @@ import numpy as np
 from ns_pz import __version__
 from ns_pz.agents.catalog import agent_entry, is_tabular
 from ns_pz.envs.registry import make_gym, spec
+from ns_pz.monitor.catalog import make_monitor
+from ns_pz.monitor.monitors import Monitor
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.nature import (
     ContinuousScheduler,
@@ -73,7 +85,9 @@ from ns_pz.views import NSGymEnv
 
 SPEC_VERSION = 1
 SIZES = ("quick", "full")
-LEVEL_LABELS = {"none": "WON", "basic": "basic", "detailed": "WN"}
+DETECTOR = "detector"
+"""The notification column whose monitor is the spec's ``[monitor]``, not the oracle."""
+LEVEL_LABELS = {"none": "WON", "basic": "basic", "detailed": "WN", DETECTOR: "WD"}
 
 _TOP_FIELDS = {
     "version",
@@ -86,7 +100,9 @@ _TOP_FIELDS = {
     "change",
     "sizes",
     "agents",
+    "monitor",
 }
+_MONITOR_FIELDS = {"name", "level", "params"}
 _CHANGE_FIELDS = {
     "single": {"kind", "param", "first_step", "to"},
     "continuous": {"kind", "param", "first_step", "by", "steps"},
@@ -119,6 +135,25 @@ class Change:
     to: tuple[Any, ...] = ()
     by: float = 0.0
     steps: int | None = None
+
+
+@dataclass(frozen=True)
+class MonitorSpec:
+    """The monitor of the detector column.
+
+    Attributes:
+        name: A name of :mod:`ns_pz.monitor.catalog`.
+        level: The notification level its messages reach the agent at.
+        params: Its keyword arguments.
+    """
+
+    name: str
+    level: str
+    params: Mapping[str, Any]
+
+    def make(self) -> Monitor:
+        """A fresh monitor."""
+        return make_monitor(self.name, self.params)
 
 
 @dataclass(frozen=True)
@@ -157,11 +192,12 @@ class ExperimentSpec:
     episodes: int
     horizon: int
     first_seed: int
+    monitor: MonitorSpec | None = None
 
     # -- identity ------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """Everything that determines the results (not where the spec was read from)."""
-        return {
+        record = {
             "version": SPEC_VERSION,
             "ns_pz": __version__,
             "name": self.name,
@@ -193,11 +229,19 @@ class ExperimentSpec:
             "horizon": self.horizon,
             "first_seed": self.first_seed,
         }
+        if self.monitor is not None:  # absent otherwise: older runs keep their digest
+            record["monitor"] = {
+                "name": self.monitor.name,
+                "level": self.monitor.level,
+                "params": dict(self.monitor.params),
+            }
+        return record
 
     @classmethod
     def from_dict(cls, record: Mapping[str, Any], source: str = "") -> ExperimentSpec:
         """Rebuild a spec from :meth:`to_dict` (e.g. a results directory's ``spec.json``)."""
         change = record["change"]
+        monitor = record.get("monitor")
         return cls(
             name=record["name"],
             title=record["title"],
@@ -222,6 +266,9 @@ class ExperimentSpec:
             episodes=record["episodes"],
             horizon=record["horizon"],
             first_seed=record["first_seed"],
+            monitor=None
+            if monitor is None
+            else MonitorSpec(monitor["name"], monitor["level"], dict(monitor["params"])),
         )
 
     def digest(self) -> str:
@@ -279,13 +326,25 @@ class ExperimentSpec:
             return ScriptedNature({change.param: rule})
         return ScriptedNature({change.param: IncrementUpdate(scheduler, k=change.by)})
 
+    def level_of(self, notification: str) -> str:
+        """The notification level of a column (the monitor's level for the detector column)."""
+        if notification == DETECTOR:
+            if self.monitor is None:
+                raise ValueError("the detector column needs a [monitor] table")
+            return self.monitor.level
+        return notification
+
     def make_env(self, cell: Cell) -> NSGymEnv:
         """The Gymnasium view of one cell, truncating at the horizon."""
+        monitor = None
+        if cell.notification == DETECTOR:
+            monitor = self.monitor.make() if self.monitor is not None else None
         return make_gym(
             self.env,
             params=self.theta0(),
             nature=self.nature(cell.index),
-            notification=cell.notification,
+            notification=self.level_of(cell.notification),
+            monitor=monitor,
             max_episode_steps=self.horizon,
             **self.env_kwargs,
         )
@@ -420,7 +479,10 @@ class _Checker:
             _theta(env_id, params)
         except (TypeError, ValueError) as error:
             raise self.fail("params", str(error)) from None
-        notifications = self.levels("notifications", raw.get("notifications", ["none"]))
+        notifications = self.levels(
+            "notifications", raw.get("notifications", ["none"]), detector=True
+        )
+        monitor = self.monitor(raw.get("monitor"), notifications)
         change = self.change(raw["change"], env_id, params)
         sizes = raw["sizes"]
         self.fields("sizes", sizes, set(SIZES), set())
@@ -457,13 +519,19 @@ class _Checker:
             episodes=episodes,
             horizon=horizon,
             first_seed=first_seed,
+            monitor=monitor,
         )
         try:
             probe_env = result.make_env(result.cells()[0])
         except (TypeError, ValueError) as error:
             raise self.fail("env_kwargs", str(error)) from None
+        if monitor is not None:
+            try:
+                result.make_env(Cell(result.settings()[0], DETECTOR, 0))
+            except (TypeError, ValueError) as error:
+                raise self.fail("monitor", f"cannot watch {env_id}: {error}") from None
         checked = tuple(
-            self.agent(f"agents[{i}]", a, size, notifications, probe_env)
+            self.agent(f"agents[{i}]", a, size, notifications, probe_env, result.level_of)
             for i, a in enumerate(agents)
         )
         keys = [slug(a.label) for a in checked]
@@ -489,8 +557,8 @@ class _Checker:
             raise self.fail("env", str(error)) from None
         return env_id
 
-    def levels(self, field: str, levels: Any) -> tuple[str, ...]:
-        allowed = [level.value for level in NotificationLevel]
+    def levels(self, field: str, levels: Any, detector: bool = False) -> tuple[str, ...]:
+        allowed = [level.value for level in NotificationLevel] + ([DETECTOR] if detector else [])
         if not isinstance(levels, (list, tuple)) or not levels:
             raise self.fail(field, f"{levels!r} must be a non-empty list of {allowed}")
         for level in levels:
@@ -501,6 +569,32 @@ class _Checker:
         if len(set(levels)) != len(levels):
             raise self.fail(field, f"{levels!r} lists a level twice")
         return tuple(levels)
+
+    def monitor(self, raw: Any, notifications: Sequence[str]) -> MonitorSpec | None:
+        if raw is None:
+            if DETECTOR in notifications:
+                raise self.fail(
+                    "notifications", f"{DETECTOR!r} needs a [monitor] table naming the detector"
+                )
+            return None
+        self.fields("monitor", raw, _MONITOR_FIELDS, {"name"})
+        if DETECTOR not in notifications:
+            raise self.fail("monitor", f"is given but notifications has no {DETECTOR!r} column")
+        level = raw.get("level", "detailed")
+        allowed = [level.value for level in NotificationLevel if level.shows_flags]
+        if level not in allowed:
+            raise self.fail(
+                "monitor.level",
+                f"{level!r}; allowed: {', '.join(allowed)} (at 'none' the agent hears nothing)",
+            )
+        params = raw.get("params", {})
+        self.fields("monitor.params", params, set(params), set())
+        try:
+            json.dumps(params, allow_nan=False)
+            make_monitor(raw["name"], params)
+        except (TypeError, ValueError) as error:
+            raise self.fail("monitor", str(error)) from None
+        return MonitorSpec(raw["name"], level, dict(params))
 
     def change(self, raw: Any, env_id: str, params: Mapping[str, Any]) -> Change:
         if not isinstance(raw, Mapping) or raw.get("kind") not in _CHANGE_FIELDS:
@@ -549,6 +643,7 @@ class _Checker:
         size: str,
         levels: Sequence[str],
         probe_env: NSGymEnv,
+        level_of: Callable[[str], str],
     ) -> AgentSpec:
         self.fields(where, raw, _AGENT_FIELDS, {"name"})
         try:
@@ -580,7 +675,7 @@ class _Checker:
                 f"{probe_env.family!r} cannot give; use it on a tabular env (FrozenLake, "
                 "CliffWalking, Bridge)",
             )
-        default_levels = [level for level in levels if level in entry.levels]
+        default_levels = [level for level in levels if level_of(level) in entry.levels]
         if not default_levels:
             raise self.fail(
                 f"{where}.name",
@@ -588,7 +683,7 @@ class _Checker:
                 f"{list(levels)}",
             )
         agent_levels = self.levels(
-            f"{where}.notifications", raw.get("notifications", default_levels)
+            f"{where}.notifications", raw.get("notifications", default_levels), detector=True
         )
         for level in agent_levels:
             if level not in levels:
@@ -596,7 +691,7 @@ class _Checker:
                     f"{where}.notifications",
                     f"{level!r} is not among the spec's notifications {list(levels)}",
                 )
-            if level not in entry.levels:
+            if level_of(level) not in entry.levels:
                 raise self.fail(
                     f"{where}.notifications",
                     f"agent {entry.name!r} runs at {sorted(entry.levels)} only, not {level!r}",

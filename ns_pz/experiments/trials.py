@@ -33,6 +33,7 @@ COLUMNS = (
     "length",
     "wall_time",
     "change_times",
+    "alarm_times",
     "status",
     "error",
 )
@@ -79,6 +80,7 @@ def new_row(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
         "length": None,
         "wall_time": None,
         "change_times": None,
+        "alarm_times": None,
         "status": "ok",
         "error": "",
     }
@@ -110,4 +112,5 @@ def run_trial(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
     row["length"] = episode.length
     row["wall_time"] = time.perf_counter() - start
     row["change_times"] = json.dumps(list(episode.change_times))
+    row["alarm_times"] = json.dumps(list(episode.alarm_times))
     return row

@@ -1,7 +1,30 @@
-"""Monitors and notification levels."""
+"""Monitors and notification levels: the oracle, imperfect oracles, detectors, and scoring."""
 
+from ns_pz.monitor.cusum import TabularCusumMonitor
+from ns_pz.monitor.drift import PredictionErrorMonitor
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor, OracleMonitor
+from ns_pz.monitor.noisy import NoisyOracleMonitor
 from ns_pz.monitor.notification import NotificationLevel
+from ns_pz.monitor.scoring import (
+    DetectionSummary,
+    EpisodeDetection,
+    detection_metrics,
+    detection_reward,
+    score_episode,
+)
 
-__all__ = ["Monitor", "NotificationLevel", "OracleMonitor", "PolicyMonitor"]
+__all__ = [
+    "DetectionSummary",
+    "EpisodeDetection",
+    "Monitor",
+    "NoisyOracleMonitor",
+    "NotificationLevel",
+    "OracleMonitor",
+    "PolicyMonitor",
+    "PredictionErrorMonitor",
+    "TabularCusumMonitor",
+    "detection_metrics",
+    "detection_reward",
+    "score_episode",
+]

@@ -34,10 +34,15 @@ class Monitor(ABC):
             monitors set it; detectors must infer changes from observations.
         needs_observation: Whether :meth:`notify` needs the monitor observation (an oracle does
             not, which spares the Gymnasium view building it every step).
+        quiet_without_change: For a monitor that :attr:`reads_ground_truth`: whether it says
+            nothing on a transition without a true change, so the process may answer "no
+            change" without calling it (the exact oracle). A monitor with memory, delays or
+            false alarms sets it to ``False`` and is called at every transition.
     """
 
     reads_ground_truth: ClassVar[bool] = False
     needs_observation: ClassVar[bool] = True
+    quiet_without_change: ClassVar[bool] = True
 
     def bind(self, family: EnvFamily, theta0: Params) -> None:  # noqa: B027 - optional hook
         """Learn, when an environment is built, what a monitor may know before any data.
@@ -47,6 +52,15 @@ class Monitor(ABC):
 
     def initial_memory(self) -> Any:
         """Fresh per-episode memory (``None`` for a memoryless monitor)."""
+        return None
+
+    def believed_theta(self, memory: Any) -> Params | None:
+        """θ the monitor believes in force now, from this episode's ``memory``.
+
+        ``None`` (the default) means no belief beyond what the notifications say. A detector
+        returns θ_0 updated by the changes it has detected: what an honest planner at
+        ``detailed`` may plan with when this monitor, not an oracle, informs it.
+        """
         return None
 
     @abstractmethod
@@ -88,3 +102,58 @@ class OracleMonitor(Monitor):
 
     def __repr__(self) -> str:
         return "OracleMonitor()"
+
+
+class Detector(Monitor):
+    """Base of the honest detectors: bound to one family and θ_0, which they may know.
+
+    A detector builds its reference model in :meth:`bind` and keeps every episode's state in
+    its memory, so one instance serves any number of environments of the same family and θ_0
+    (a vector of envs, the game and its view). Binding it to another family or θ_0 raises: its
+    reference would silently change under the environments already using it.
+    """
+
+    _family: EnvFamily | None = None
+    _theta0: Params | None = None
+
+    def _already_bound(self, family: EnvFamily, theta0: Params) -> bool:
+        """Whether ``bind`` has nothing to do (bound to the same family and θ_0 already).
+
+        Raises:
+            ValueError: Bound to another family or θ_0.
+        """
+        if self._family is None:
+            return False
+        if repr(family) == repr(self._family) and theta0 == self._theta0:
+            return True
+        raise ValueError(
+            f"{type(self).__name__} is bound to {self._family!r} with θ_0 = {self._theta0!r}; "
+            f"give {family!r} with θ_0 = {theta0!r} its own instance"
+        )
+
+    def _bound_theta0(self) -> Params:
+        """θ_0 of the bound environment.
+
+        Raises:
+            RuntimeError: Not bound yet.
+        """
+        if self._theta0 is None:
+            raise RuntimeError(
+                f"{type(self).__name__} is not bound to an environment; pass it as monitor= to "
+                "an ns_pz environment (which calls bind(family, theta0))"
+            )
+        return self._theta0
+
+
+def has_transition(observation: dict[str, Any] | None) -> bool:
+    """Whether a monitor observation holds a transition (it does not at reset, ``t = 0``).
+
+    At reset ``last_action`` is the action space's null element and ``last_state`` equals
+    ``state``; that is no evidence about θ, and a detector must treat it as no data.
+    """
+    return observation is not None and float(observation["relative_time"][0]) > 0.0
+
+
+def silence(count: int) -> tuple[Flags, Sizes]:
+    """The notification "no change" for ``count`` parameters."""
+    return (0,) * count, (0.0,) * count

@@ -1,0 +1,116 @@
+"""Imperfect oracles for controlled studies: missed alarms, false alarms and delays on demand.
+
+:class:`NoisyOracleMonitor` reads the true change (it is an oracle, ``reads_ground_truth``) and
+degrades it: each true change is missed with probability ``miss_probability``, or reported
+``delay`` transitions late; each transition without a true change raises a false alarm with
+probability ``false_alarm_probability``, flagging one parameter drawn uniformly (size 0). It
+draws exactly two uniforms per transition from the monitor's generator, whatever happens, so
+its notifications depend on the seed and the change times only.
+
+It must be asked at every transition, with the true sizes (zeros where nothing changed): its
+class attribute :attr:`~ns_pz.monitor.Monitor.quiet_without_change` is ``False``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition, silence
+
+
+class NoisyOracleMemory:
+    """One episode's pending (delayed) reports and the alarms raised."""
+
+    __slots__ = ("pending", "alarms")
+
+    def __init__(self) -> None:
+        self.pending: list[tuple[int, tuple[float, ...]]] = []
+        """(transition at which to report, true sizes) of changes not reported yet."""
+        self.alarms: list[int] = []
+        """Transition indices whose notification raised an alarm."""
+
+
+class NoisyOracleMonitor(Monitor):
+    """The oracle with misses, false alarms and a delay (see the module doc).
+
+    Args:
+        miss_probability: Probability that a true change is never reported.
+        false_alarm_probability: Probability, per transition without a true change, of a false
+            alarm.
+        delay: Transitions between a change and its report (0: as the oracle).
+
+    Raises:
+        ValueError: A probability outside [0, 1], a negative delay.
+        TypeError: A delay that is not an int.
+    """
+
+    reads_ground_truth = True
+    needs_observation = True
+    quiet_without_change: ClassVar[bool] = False
+
+    def __init__(
+        self,
+        miss_probability: float = 0.0,
+        false_alarm_probability: float = 0.0,
+        delay: int = 0,
+    ) -> None:
+        for name, value in (
+            ("miss_probability", miss_probability),
+            ("false_alarm_probability", false_alarm_probability),
+        ):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError(f"{name}={value!r} must be a number in [0, 1]")
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"{name}={value!r} must be in [0, 1]")
+        if isinstance(delay, bool) or not isinstance(delay, int):
+            raise TypeError(f"delay={delay!r} must be an int >= 0")
+        if delay < 0:
+            raise ValueError(f"delay={delay!r} must be >= 0")
+        self.miss_probability = float(miss_probability)
+        self.false_alarm_probability = float(false_alarm_probability)
+        self.delay = delay
+
+    def initial_memory(self) -> NoisyOracleMemory:
+        """Nothing pending."""
+        return NoisyOracleMemory()
+
+    def notify(
+        self,
+        observation: dict[str, Any] | None,
+        truth: Sequence[float] | None,
+        memory: NoisyOracleMemory,
+        rng: np.random.Generator,
+    ) -> tuple[Flags, Sizes]:
+        """Report due changes; maybe miss the new one; maybe raise a false alarm."""
+        if truth is None:
+            raise RuntimeError("NoisyOracleMonitor.notify needs the true change sizes (truth=None)")
+        count = len(truth)
+        if not has_transition(observation):
+            return silence(count)
+        assert observation is not None
+        transition = int(observation["relative_time"][0]) - 1
+        miss_draw, false_draw = rng.random(2)
+        changed = any(size > 0.0 for size in truth)
+        if changed and miss_draw >= self.miss_probability:
+            memory.pending.append((transition + self.delay, tuple(float(s) for s in truth)))
+        due = [sizes for when, sizes in memory.pending if when <= transition]
+        memory.pending = [(when, sizes) for when, sizes in memory.pending if when > transition]
+        if due:
+            sizes = tuple(math.fsum(column) for column in zip(*due, strict=True))
+            memory.alarms.append(transition)
+            return tuple(int(s > 0.0) for s in sizes), sizes
+        if not changed and false_draw < self.false_alarm_probability:
+            flagged = int(false_draw / self.false_alarm_probability * count) % count
+            memory.alarms.append(transition)
+            return tuple(int(i == flagged) for i in range(count)), silence(count)[1]
+        return silence(count)
+
+    def __repr__(self) -> str:
+        return (
+            f"NoisyOracleMonitor(miss_probability={self.miss_probability}, "
+            f"false_alarm_probability={self.false_alarm_probability}, delay={self.delay})"
+        )

@@ -1,0 +1,211 @@
+"""Scoring change detection: delays, false alarms, misses, and a per-step reward for a monitor.
+
+Times are transition indices. A change at ``τ`` (:attr:`~ns_pz.process.GroundTruth.change_times`)
+applies to transition ``τ``. An alarm at ``α`` is a notification with at least one flag raised
+once transition ``α`` has been observed: the agent gets it in the observation whose
+``relative_time`` is ``α + 1``. The exact oracle therefore alarms at ``α = τ``: delay 0.
+
+When an alarm is a detection, and when a false alarm:
+
+* Change ``i`` owns the interval ``[τ_i, τ_{i+1})`` (up to the episode's end for the last
+  change). The first alarm inside that interval, and no later than ``τ_i + max_delay`` when a
+  ``max_delay`` is given, detects change ``i``; its delay is ``α - τ_i``.
+* Every other alarm is a false alarm: one before the first change, a second alarm for the same
+  change, one after ``max_delay`` has run out.
+* A change with no detecting alarm is missed (it may simply come too close to the episode's end).
+* False alarms per 1,000 steps = ``1000 * false alarms / steps``, ``steps`` being the episode's
+  transitions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class EpisodeDetection:
+    """How one episode's alarms score against its true changes.
+
+    Attributes:
+        steps: Transitions in the episode.
+        changes: True changes.
+        delays: Delay of each detected change, in change order.
+        missed: Changes never detected.
+        false_alarms: Alarms that detected nothing.
+    """
+
+    steps: int
+    changes: int
+    delays: tuple[int, ...]
+    missed: int
+    false_alarms: int
+
+    @property
+    def false_alarms_per_1000(self) -> float:
+        """False alarms per 1,000 transitions (0 for an empty episode)."""
+        return 1000.0 * self.false_alarms / self.steps if self.steps else 0.0
+
+
+@dataclass(frozen=True)
+class DetectionSummary:
+    """Detection scores aggregated over episodes.
+
+    Attributes:
+        episodes: Episodes scored.
+        steps: Transitions over all episodes.
+        changes: True changes over all episodes.
+        detected: Changes detected.
+        missed: Changes missed.
+        false_alarms: False alarms over all episodes.
+        mean_delay: Mean delay over detected changes (NaN if none was detected).
+        false_alarms_per_1000: ``1000 * false_alarms / steps`` over all episodes pooled.
+        per_episode: Each episode's score, in input order.
+    """
+
+    episodes: int
+    steps: int
+    changes: int
+    detected: int
+    missed: int
+    false_alarms: int
+    mean_delay: float
+    false_alarms_per_1000: float
+    per_episode: tuple[EpisodeDetection, ...]
+
+
+def score_episode(
+    change_times: Sequence[int],
+    alarm_times: Sequence[int],
+    steps: int,
+    max_delay: int | None = None,
+) -> EpisodeDetection:
+    """Score one episode (see the module doc for the rules).
+
+    Args:
+        change_times: Transition index of each true change, increasing.
+        alarm_times: Transition index of each alarm, increasing.
+        steps: Transitions in the episode (alarms and changes are at ``0 .. steps - 1``).
+        max_delay: Longest delay that still counts as a detection; ``None``: any.
+
+    Raises:
+        ValueError: Times not strictly increasing, outside ``[0, steps)``, a negative
+            ``steps`` or ``max_delay``.
+    """
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 0:
+        raise ValueError(f"steps={steps!r} must be an int >= 0")
+    if max_delay is not None and (
+        isinstance(max_delay, bool) or not isinstance(max_delay, int) or max_delay < 0
+    ):
+        raise ValueError(f"max_delay={max_delay!r} must be an int >= 0 or None")
+    changes = _check_times("change_times", change_times, steps)
+    alarms = _check_times("alarm_times", alarm_times, steps)
+    delays = []
+    detecting = 0
+    for i, start in enumerate(changes):
+        end = changes[i + 1] if i + 1 < len(changes) else steps
+        if max_delay is not None:
+            end = min(end, start + max_delay + 1)
+        inside = [a for a in alarms if start <= a < end]
+        if inside:
+            delays.append(inside[0] - start)
+            detecting += 1
+    return EpisodeDetection(
+        steps=steps,
+        changes=len(changes),
+        delays=tuple(delays),
+        missed=len(changes) - len(delays),
+        false_alarms=len(alarms) - detecting,
+    )
+
+
+def detection_metrics(
+    episodes: Iterable[tuple[Sequence[int], Sequence[int], int]],
+    max_delay: int | None = None,
+) -> DetectionSummary:
+    """Detection delay, false alarms per 1,000 steps and missed changes, per episode and pooled.
+
+    Args:
+        episodes: One ``(change_times, alarm_times, steps)`` per episode: the true change times
+            (``env.ground_truth().change_times``), the alarm times (transition ``t - 1`` for
+            each observation at ``relative_time == t`` that has a flag raised) and the number
+            of transitions.
+        max_delay: Longest delay that still counts as a detection; ``None``: any.
+
+    Returns:
+        The pooled summary, with each episode's :class:`EpisodeDetection` in ``per_episode``.
+
+    Raises:
+        ValueError: See :func:`score_episode`.
+    """
+    scored = tuple(
+        score_episode(changes, alarms, steps, max_delay) for changes, alarms, steps in episodes
+    )
+    delays = [d for e in scored for d in e.delays]
+    steps = sum(e.steps for e in scored)
+    false_alarms = sum(e.false_alarms for e in scored)
+    return DetectionSummary(
+        episodes=len(scored),
+        steps=steps,
+        changes=sum(e.changes for e in scored),
+        detected=len(delays),
+        missed=sum(e.missed for e in scored),
+        false_alarms=false_alarms,
+        mean_delay=math.fsum(delays) / len(delays) if delays else math.nan,
+        false_alarms_per_1000=1000.0 * false_alarms / steps if steps else 0.0,
+        per_episode=scored,
+    )
+
+
+def detection_reward(
+    undetected_change: bool, alarm: bool, false_alarm_cost: float = 10.0
+) -> tuple[float, bool]:
+    """The monitor's reward for one transition, and whether a change is still undetected after it.
+
+    A dense per-step score for a learnable monitor, paid at each transition ``t`` once the
+    monitor has (or has not) raised an alarm about it:
+
+    * ``-1`` while a true change is undetected and the monitor stays silent: summed, each
+      detected change costs its delay, and a missed one the transitions it stayed undetected;
+    * ``-false_alarm_cost`` for an alarm when no change is undetected (a false alarm);
+    * ``0`` otherwise (silence with nothing to report, or the alarm that detects a change).
+
+    Over an episode the rewards sum to ``-(sum of delays + undetected time of missed changes)
+    - false_alarm_cost * false alarms``, the rules of :func:`score_episode` without
+    ``max_delay``. Wiring it (``pending`` starts ``False`` at reset)::
+
+        if t in change_times:           # a true change at transition t
+            pending = True
+        reward, pending = detection_reward(pending, alarm_about_t, false_alarm_cost)
+
+    Args:
+        undetected_change: Whether a true change at or before this transition has not been
+            detected yet (including one at this very transition).
+        alarm: Whether the monitor raised a flag about this transition.
+        false_alarm_cost: ``λ``: how many steps of delay one false alarm is worth.
+
+    Returns:
+        ``(reward, undetected_change after this transition)``.
+
+    Raises:
+        ValueError: A negative or non-finite ``false_alarm_cost``.
+    """
+    if not 0.0 <= false_alarm_cost < math.inf:
+        raise ValueError(f"false_alarm_cost={false_alarm_cost!r} must be finite and >= 0")
+    if alarm:
+        return (0.0, False) if undetected_change else (-float(false_alarm_cost), False)
+    return (-1.0, True) if undetected_change else (0.0, False)
+
+
+def _check_times(name: str, times: Sequence[int], steps: int) -> list[int]:
+    result = []
+    for value in times:
+        if isinstance(value, bool) or int(value) != value:
+            raise ValueError(f"{name}={list(times)!r} must hold integers")
+        result.append(int(value))
+    if any(b <= a for a, b in zip(result, result[1:], strict=False)):
+        raise ValueError(f"{name}={list(times)!r} must be strictly increasing")
+    if result and (result[0] < 0 or result[-1] >= steps):
+        raise ValueError(f"{name}={list(times)!r} must lie in [0, steps) with steps={steps}")
+    return result

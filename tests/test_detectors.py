@@ -1,0 +1,451 @@
+"""Detector monitors on synthetic streams with known change points, and through the envs.
+
+Synthetic streams draw each transition's state and action uniformly (so every run sees the same
+mix of informative transitions) and step the family under θ_0 before the change and θ_1 from the
+change on. The bounds are stated per test, with the figures measured when they were set.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+from ns_pz.envs.cartpole import CartPoleFamily, CartPoleParams
+from ns_pz.envs.cliff_walking import CliffWalkingFamily, CliffWalkingParams
+from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
+from ns_pz.envs.mountain_car import MountainCarContinuousFamily
+
+import ns_pz
+from ns_pz.monitor import (
+    NoisyOracleMonitor,
+    PredictionErrorMonitor,
+    TabularCusumMonitor,
+    detection_metrics,
+    score_episode,
+)
+from ns_pz.nature import (
+    DiscreteScheduler,
+    DistributionStepWiseUpdate,
+    ScriptedNature,
+    StepWiseUpdate,
+)
+
+
+def _observation(t: int, state, action, next_state) -> dict:
+    return {
+        "last_state": state,
+        "last_action": action,
+        "last_reward": np.zeros(1, np.float32),
+        "state": next_state,
+        "relative_time": np.array([t + 1], np.float32),
+    }
+
+
+def tabular_stream(family, theta0, theta1, change: int, steps: int, seed: int) -> Iterator[dict]:
+    """Transitions from uniform non-terminal states and actions; θ_1 from ``change`` on."""
+    rng = np.random.default_rng(seed)
+    live = [s for s in range(family.observation_space.n) if not family.is_terminal_state(s)]
+    for t in range(steps):
+        state, action = int(rng.choice(live)), int(rng.integers(family.action_space.n))
+        next_state, _, _ = family.step(state, action, theta1 if t >= change else theta0, rng)
+        yield _observation(t, state, action, next_state)
+
+
+def cartpole_stream(theta0, theta1, change: int, steps: int, seed: int) -> Iterator[dict]:
+    """CartPole transitions from uniform states near upright, observed in float32."""
+    family = CartPoleFamily()
+    rng = np.random.default_rng(seed)
+    for t in range(steps):
+        state = tuple(rng.uniform(-0.2, 0.2, 4).astype(np.float32).tolist())
+        action = int(rng.integers(2))
+        next_state, _, _ = family.step(state, action, theta1 if t >= change else theta0, rng)
+        yield _observation(t, np.array(state, np.float32), action, family.observe(next_state))
+
+
+def run(monitor, stream) -> tuple[list[int], object]:
+    """Feed a stream to a fresh episode of ``monitor``: its alarms and final memory."""
+    memory = monitor.initial_memory()
+    rng = np.random.default_rng(0)
+    for observation in stream:
+        monitor.notify(observation, None, memory, rng)
+    return memory.alarms, memory
+
+
+# -- scoring ---------------------------------------------------------------------------------
+def test_score_episode_rules():
+    """First alarm in a change's interval detects it; others are false; no alarm is a miss."""
+    scored = score_episode([10, 50], [3, 12, 20, 80], steps=100)
+    assert scored.delays == (2, 30)  # 12 detects 10; 80 detects 50
+    assert scored.false_alarms == 2  # 3 (before any change) and 20 (second for change 10)
+    assert scored.missed == 0
+    assert scored.false_alarms_per_1000 == pytest.approx(20.0)
+    assert score_episode([10, 50], [60], steps=100).missed == 1  # 10 has no alarm before 50
+    late = score_episode([10], [40], steps=100, max_delay=20)
+    assert (late.delays, late.missed, late.false_alarms) == ((), 1, 1)
+
+
+def test_detection_metrics_pools_episodes():
+    """Delays, misses and false alarms add up over episodes; the rate pools the steps."""
+    summary = detection_metrics([([5], [5], 100), ([5], [9, 50], 100), ([], [1], 50)])
+    assert (summary.episodes, summary.steps, summary.changes) == (3, 250, 2)
+    assert (summary.detected, summary.missed, summary.false_alarms) == (2, 0, 2)
+    assert summary.mean_delay == pytest.approx(2.0)
+    assert summary.false_alarms_per_1000 == pytest.approx(8.0)
+    assert np.isnan(detection_metrics([([5], [], 10)]).mean_delay)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"change_times": [5, 5], "alarm_times": [], "steps": 10}, "strictly increasing"),
+        ({"change_times": [12], "alarm_times": [], "steps": 10}, r"must lie in \[0, steps\)"),
+        ({"change_times": [], "alarm_times": [], "steps": -1}, "steps=-1"),
+        ({"change_times": [], "alarm_times": [], "steps": 5, "max_delay": -2}, "max_delay=-2"),
+    ],
+)
+def test_score_episode_rejects_bad_input(kwargs, match):
+    """Bad times, steps or max_delay name the parameter."""
+    with pytest.raises(ValueError, match=match):
+        score_episode(**kwargs)
+
+
+def test_detection_reward_sums_to_the_scores():
+    """Summed over an episode: -(delays + undetected time of misses) - λ·false alarms."""
+    from ns_pz.monitor import detection_reward
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        steps = int(rng.integers(1, 60))
+        changes = sorted({int(x) for x in rng.integers(0, steps, rng.integers(0, 4))})
+        alarms = sorted({int(x) for x in rng.integers(0, steps, rng.integers(0, 5))})
+        pending, total = False, 0.0
+        for t in range(steps):
+            pending = pending or t in changes
+            reward, pending = detection_reward(pending, t in alarms, false_alarm_cost=3.0)
+            total += reward
+        scored = score_episode(changes, alarms, steps)
+        undetected = 0
+        for i, start in enumerate(changes):  # a missed change costs until the next / the end
+            end = changes[i + 1] if i + 1 < len(changes) else steps
+            if not any(start <= a < end for a in alarms):
+                undetected += end - start
+        assert total == -(sum(scored.delays) + undetected) - 3.0 * scored.false_alarms
+    with pytest.raises(ValueError, match="false_alarm_cost=-1"):
+        detection_reward(True, False, false_alarm_cost=-1)
+
+
+# -- tabular CUSUM ---------------------------------------------------------------------------
+FL0 = FrozenLakeParams(slip=(0.7, 0.15, 0.15))
+FL1 = FrozenLakeParams(slip=(0.4, 0.3, 0.3))
+
+
+def test_tabular_cusum_detects_a_frozenlake_change():
+    """0.7 → 0.4 at 300 of 1,300 (20 runs): measured mean delay 44, 0.4 false alarms / 1,000.
+
+    Bounds: every change detected but at most one, mean delay <= 80, <= 2 false alarms per
+    1,000 steps, and the believed slip ends within 0.1 (total variation) of the truth.
+    """
+    family = FrozenLakeFamily()
+    monitor = TabularCusumMonitor()
+    monitor.bind(family, FL0)
+    episodes, errors = [], []
+    for seed in range(20):
+        alarms, memory = run(monitor, tabular_stream(family, FL0, FL1, 300, 1300, seed))
+        episodes.append(([300], alarms, 1300))
+        errors.append(monitor.believed_theta(memory).change_sizes(FL1)[0])
+    summary = detection_metrics(episodes)
+    assert summary.missed <= 1
+    assert summary.mean_delay <= 80
+    assert summary.false_alarms_per_1000 <= 2.0
+    assert np.median(errors) < 0.1
+
+
+def test_tabular_cusum_false_alarm_rate_when_stationary():
+    """No change in 20 runs of 2,000 steps: at most 2 false alarms per 1,000 steps."""
+    family = FrozenLakeFamily()
+    monitor = TabularCusumMonitor()
+    monitor.bind(family, FL0)
+    episodes = [
+        ([], run(monitor, tabular_stream(family, FL0, FL0, 0, 2000, seed))[0], 2000)
+        for seed in range(20)
+    ]
+    assert detection_metrics(episodes).false_alarms_per_1000 <= 2.0
+
+
+def test_impossible_transition_is_a_certain_change():
+    """Deterministic CliffWalking: the first slip alarms at that very transition, at any h."""
+    family = CliffWalkingFamily()
+    theta0 = CliffWalkingParams()  # (1, 0, 0, 0)
+    theta1 = CliffWalkingParams(slip=(0.5, 0.5, 0.0, 0.0))
+    monitor = TabularCusumMonitor(threshold=1e6)
+    monitor.bind(family, theta0)
+    memory = monitor.initial_memory()
+    rng = np.random.default_rng(0)
+    first_slip = None
+    for observation in tabular_stream(family, theta0, theta1, 10, 200, seed=1):
+        t = int(observation["relative_time"][0]) - 1
+        deterministic = family.step(
+            observation["last_state"], observation["last_action"], theta0, rng
+        )[0]
+        flags, sizes = monitor.notify(observation, None, memory, rng)
+        if first_slip is None and deterministic != observation["state"]:
+            first_slip = t
+            assert flags == (1,) and sizes[0] > 0.0
+            break
+        assert flags == (0,), f"alarm at {t} before any impossible transition"
+    assert first_slip is not None and first_slip >= 10
+    assert memory.alarms == [first_slip]
+
+
+def test_tabular_cusum_reset_call_is_no_data():
+    """At relative_time 0 (the null action, no transition yet) nothing is updated."""
+    family = FrozenLakeFamily()
+    monitor = TabularCusumMonitor()
+    monitor.bind(family, FL0)
+    memory = monitor.initial_memory()
+    reset = {**_observation(-1, 0, 0, 0)}
+    assert monitor.notify(reset, None, memory, np.random.default_rng(0)) == ((0,), (0.0,))
+    assert memory.trace == [] and float(memory.statistics[0].max()) == 0.0
+
+
+def test_tabular_cusum_checks_its_arguments_and_family():
+    """Bad arguments name the parameter; a family without outcome tables is refused."""
+    with pytest.raises(ValueError, match="threshold=0"):
+        TabularCusumMonitor(threshold=0)
+    with pytest.raises(ValueError, match="grid_step=0.3 must divide 1"):
+        TabularCusumMonitor(grid_step=0.3)
+    with pytest.raises(ValueError, match="window=0"):
+        TabularCusumMonitor(window=0)
+    with pytest.raises(TypeError, match="no explicit outcome table"):
+        TabularCusumMonitor().bind(CartPoleFamily(), CartPoleParams())
+    with pytest.raises(RuntimeError, match="TabularCusumMonitor is not bound"):
+        TabularCusumMonitor().initial_memory()
+
+
+def test_a_detector_serves_many_envs_of_one_theta0_only():
+    """Same family and θ_0: one instance, independent memories; another θ_0 is refused."""
+    monitor = TabularCusumMonitor()
+    first = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": FL0.slip}, monitor=monitor)
+    second = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": FL0.slip}, monitor=monitor)
+    first.reset(seed=0)
+    second.reset(seed=1)
+    assert first._process.monitor_memory is not second._process.monitor_memory
+    with pytest.raises(ValueError, match="give .* its own instance"):
+        ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": FL1.slip}, monitor=monitor)
+
+
+# -- prediction-error CUSUM ------------------------------------------------------------------
+def test_prediction_error_detects_a_small_cartpole_change():
+    """A pole twice as heavy, from 100 of 300 (10 runs): detected at once, no false alarm.
+
+    The estimate ends within 1% of 0.2 (measured: delay 0, 0 false alarms).
+    """
+    monitor = PredictionErrorMonitor()
+    monitor.bind(CartPoleFamily(), CartPoleParams())
+    theta1 = CartPoleParams(masspole=0.2)
+    episodes = []
+    for seed in range(10):
+        alarms, memory = run(monitor, cartpole_stream(CartPoleParams(), theta1, 100, 300, seed))
+        episodes.append(([100], alarms, 300))
+        assert monitor.believed_theta(memory).masspole == pytest.approx(0.2, rel=0.01)
+    summary = detection_metrics(episodes)
+    assert summary.missed == 0 and summary.false_alarms == 0
+    assert summary.mean_delay <= 1.0
+
+
+def test_prediction_error_is_silent_when_stationary():
+    """θ_0 throughout: rounding to float32 observations stays far below the tolerance."""
+    monitor = PredictionErrorMonitor()
+    monitor.bind(CartPoleFamily(), CartPoleParams())
+    for seed in range(5):
+        alarms, memory = run(
+            monitor, cartpole_stream(CartPoleParams(), CartPoleParams(), 0, 1000, seed)
+        )
+        assert alarms == [] and max(memory.trace) == 0.0
+
+
+def test_prediction_error_checks_its_arguments_and_family():
+    """Bad arguments name the parameter; an observation that is not the state is refused."""
+    with pytest.raises(ValueError, match="tolerance=-1"):
+        PredictionErrorMonitor(tolerance=-1)
+    with pytest.raises(ValueError, match="window=0"):
+        PredictionErrorMonitor(window=0)
+    car = MountainCarContinuousFamily()  # its state holds a flag the observation does not show
+    with pytest.raises(TypeError, match="state_from_observation"):
+        PredictionErrorMonitor().bind(car, car.default_params())
+    with pytest.raises(ValueError, match="probability vector"):
+        PredictionErrorMonitor(params=["slip"]).bind(FrozenLakeFamily(), FL0)
+
+
+# -- through the environments ----------------------------------------------------------------
+def _episode_alarms(env, seed: int, policy) -> tuple[list[int], tuple[int, ...], int]:
+    observation, _ = env.reset(seed=seed)
+    alarms, steps, done = [], 0, False
+    while not done:
+        observation, _, terminated, truncated, _ = env.step(policy(observation, steps))
+        steps += 1
+        if observation["env_change"].any():
+            alarms.append(int(observation["relative_time"][0]) - 1)
+        done = terminated or truncated
+    return alarms, env.ground_truth().change_times, steps
+
+
+@pytest.mark.parametrize(
+    ("env_id", "params", "nature", "monitor", "policy", "bound"),
+    [
+        (
+            "ns_pz/CliffWalking-v0",
+            {},
+            ScriptedNature(
+                {
+                    "slip": DistributionStepWiseUpdate(
+                        DiscreteScheduler({20}), [(0.4, 0.2, 0.2, 0.2)]
+                    )
+                }
+            ),
+            TabularCusumMonitor(),
+            lambda obs, t: t % 4,  # walks around near the start without dying at once
+            10,
+        ),
+        (
+            "ns_pz/CartPole-v0",
+            {},
+            ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({5}), [1.0])}),
+            PredictionErrorMonitor(),
+            lambda obs, t: int(obs["state"][2] > 0),
+            1,
+        ),
+        (
+            "ns_pz/MountainCar-v0",
+            {},
+            ScriptedNature({"gravity": StepWiseUpdate(DiscreteScheduler({30}), [0.005])}),
+            PredictionErrorMonitor(),
+            lambda obs, t: 2 if obs["state"][1] >= 0 else 0,
+            1,
+        ),
+        (  # the state is read back from cos/sin observations (state_from_observation)
+            "ns_pz/Pendulum-v0",
+            {},
+            ScriptedNature({"mass": StepWiseUpdate(DiscreteScheduler({50}), [1.5])}),
+            PredictionErrorMonitor(),
+            lambda obs, t: np.array([np.sin(t / 7.0) * 2.0], np.float32),
+            1,
+        ),
+        (
+            "ns_pz/Acrobot-v0",
+            {},
+            ScriptedNature({"link_mass_2": StepWiseUpdate(DiscreteScheduler({50}), [1.5])}),
+            PredictionErrorMonitor(),
+            lambda obs, t: (t // 10) % 3,
+            1,
+        ),
+    ],
+    ids=["cliffwalking", "cartpole", "mountaincar", "pendulum", "acrobot"],
+)
+def test_detectors_through_the_env(env_id, params, nature, monitor, policy, bound):
+    """A single change in the Gymnasium view: detected within ``bound`` steps, no false alarm."""
+    env = ns_pz.make_gym(
+        env_id,
+        params=params,
+        nature=nature,
+        monitor=monitor,
+        notification="detailed",
+        max_episode_steps=200,
+    )
+    episodes = [_episode_alarms(env, seed, policy) for seed in range(5)]
+    summary = detection_metrics((changes, alarms, steps) for alarms, changes, steps in episodes)
+    assert summary.changes == 5 and summary.missed == 0
+    assert max(d for e in summary.per_episode for d in e.delays) <= bound
+    assert summary.false_alarms == 0
+
+
+def test_detailed_alarm_then_refinement_finds_the_parameter():
+    """CartPole, masspole 0.1 → 1.0 at transition 1: an alarm at once, flagging one parameter.
+
+    One transition near upright cannot tell a heavier pole from a heavier cart (the first fit
+    may pick masscart); later crossings refine silently, and the believed θ ends at the truth.
+    """
+    monitor = PredictionErrorMonitor()
+    env = ns_pz.make_gym(
+        "ns_pz/CartPole-v0",
+        nature=ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({1}), [1.0])}),
+        monitor=monitor,
+        notification="detailed",
+    )
+    observation, _ = env.reset(seed=0)
+    alarms = []
+    for _ in range(40):
+        observation, _, terminated, _, _ = env.step(int(observation["state"][2] > 0))
+        if observation["env_change"].any():
+            alarms.append(int(observation["relative_time"][0]) - 1)
+            assert observation["env_change"].sum() == 1
+            assert observation["delta_change"].max() > 0.0
+        if terminated:
+            break
+    assert alarms == [1]
+    believed = monitor.believed_theta(env._process.monitor_memory)
+    assert believed.masspole == pytest.approx(1.0, rel=1e-3)
+    assert believed.masscart == pytest.approx(1.0, rel=1e-3)
+
+
+# -- noisy oracle ----------------------------------------------------------------------------
+def _oracle_run(monitor, changes: set[int], steps: int, seed: int) -> list[int]:
+    memory = monitor.initial_memory()
+    rng = np.random.default_rng(seed)
+    for t in range(steps):
+        truth = (0.3,) if t in changes else (0.0,)
+        monitor.notify(_observation(t, 0, 0, 0), truth, memory, rng)
+    return memory.alarms
+
+
+def test_noisy_oracle_delay_misses_and_false_alarms():
+    """Exact delays; miss and false-alarm frequencies near their probabilities; seeded."""
+    exact = NoisyOracleMonitor(delay=3)
+    assert _oracle_run(exact, {5, 40}, 100, seed=0) == [8, 43]
+    missing = NoisyOracleMonitor(miss_probability=0.3)
+    detected = sum(len(_oracle_run(missing, {5}, 10, seed)) for seed in range(2000))
+    assert 0.66 < detected / 2000 < 0.74  # 0.7, about 5 standard errors either side
+    noisy = NoisyOracleMonitor(false_alarm_probability=0.02)
+    alarms = sum(len(_oracle_run(noisy, set(), 1000, seed)) for seed in range(20))
+    assert 15.0 < alarms / 20 < 25.0  # 20 expected per 1,000 steps
+    assert _oracle_run(noisy, set(), 1000, 7) == _oracle_run(noisy, set(), 1000, 7)
+
+
+def test_noisy_oracle_checks_its_arguments():
+    """Bad probabilities and delays name the parameter."""
+    with pytest.raises(ValueError, match="miss_probability=1.5"):
+        NoisyOracleMonitor(miss_probability=1.5)
+    with pytest.raises(TypeError, match="delay=1.5"):
+        NoisyOracleMonitor(delay=1.5)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="delay=-1"):
+        NoisyOracleMonitor(delay=-1)
+
+
+def test_delayed_oracle_through_the_env():
+    """In the view, a change at 3 reported with delay 2 alarms at 5."""
+    env = ns_pz.make_gym(
+        "ns_pz/CartPole-v0",
+        nature=ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({3}), [0.5])}),
+        monitor=NoisyOracleMonitor(delay=2),
+        notification="detailed",
+    )
+    alarms, changes, _ = _episode_alarms(env, 0, lambda obs, t: int(obs["state"][2] > 0))
+    assert changes == (3,) and alarms == [5]
+
+
+def test_planning_model_follows_the_detector_not_the_truth():
+    """A detector that has not alarmed yet leaves the planner at θ_0 (WD is honest)."""
+    env = ns_pz.make_gym(
+        "ns_pz/FrozenLake-v0",
+        params={"slip": (0.7, 0.15, 0.15)},
+        nature=ScriptedNature(
+            {"slip": DistributionStepWiseUpdate(DiscreteScheduler({1}), [(0.4, 0.3, 0.3)])}
+        ),
+        monitor=TabularCusumMonitor(threshold=1e6),
+        notification="detailed",
+    )
+    env.reset(seed=0)
+    env.step(1)
+    env.step(1)  # transition 1 ran under the new θ; the detector cannot know yet
+    assert env.planning_model().theta.slip == (0.7, 0.15, 0.15)
