@@ -25,6 +25,7 @@ from gymnasium import spaces
 
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor
+from ns_pz.monitor.scoring import detection_reward
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.nature.policies import Nature
@@ -38,6 +39,37 @@ MonitorRewardFn = Callable[[NSProcess, tuple], float]
 """``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
 
 
+class DetectionReward:
+    """The monitor's detection score as a per-turn reward (:func:`ns_pz.monitor.detection_reward`).
+
+    At the monitor's turn of step ``t`` its flags speak about transition ``t - 1``: the reward is
+    -1 per step a true change stays undetected, ``-false_alarm_cost`` per alarm with no change
+    to detect (an alarm at ``t = 0``, before any transition, is one), 0 otherwise; summed over an
+    episode, ``-(delays + undetected time of missed changes) - false_alarm_cost × false
+    alarms``. Call :meth:`reset` at every episode start.
+
+    Args:
+        false_alarm_cost: How many steps of delay one false alarm is worth (``λ``), >= 0.
+    """
+
+    def __init__(self, false_alarm_cost: float = 10.0) -> None:
+        detection_reward(False, False, false_alarm_cost)  # validates the cost
+        self.false_alarm_cost = float(false_alarm_cost)
+        self._pending = False
+
+    def reset(self) -> None:
+        """Start an episode: no change pending."""
+        self._pending = False
+
+    def __call__(self, process: NSProcess, flags: tuple) -> float:
+        """The reward for ``flags`` sent at the monitor's turn of the current step."""
+        about = process.t - 1
+        if about >= 0 and about in process.change_times:
+            self._pending = True
+        reward, self._pending = detection_reward(self._pending, any(flags), self.false_alarm_cost)
+        return reward
+
+
 def single_agent(
     env: str,
     learner: str = "agent",
@@ -48,7 +80,7 @@ def single_agent(
     nature_action: str = "normalized",
     nature_observes_state: bool = False,
     default_step: float = DEFAULT_STEP,
-    monitor_reward: MonitorRewardFn | None = None,
+    monitor_reward: MonitorRewardFn | str | None = None,
     deterministic: bool = True,
     **env_kwargs: Any,
 ) -> gym.Env:
@@ -71,7 +103,8 @@ def single_agent(
         nature_observes_state: Nature sees the agent's state and last action.
         default_step: Per-step allowance of a parameter without a Lipschitz bound, as a
             fraction of its size at θ_0 (see :mod:`ns_pz.nature.interface`).
-        monitor_reward: What the learning monitor earns per turn, ``fn(process, flags)``.
+        monitor_reward: What the learning monitor earns per turn: ``"detection"`` (a
+            :class:`DetectionReward` with λ = 10) or any ``fn(process, flags) -> float``.
             Required for ``learner="monitor"``.
         deterministic: Ask SB3-style policies of the other seats deterministically.
         **env_kwargs: The environment's arguments (``params``, ``nature``, ``monitor``,
@@ -143,7 +176,7 @@ class SeatEnv(gym.Env[Any, Any]):
         nature_action: str = "normalized",
         nature_observes_state: bool = False,
         default_step: float = DEFAULT_STEP,
-        monitor_reward: MonitorRewardFn | None = None,
+        monitor_reward: MonitorRewardFn | str | None = None,
     ) -> None:
         if learner not in (NATURE, MONITOR):
             raise ValueError(f"learner={learner!r}; a SeatEnv serves {NATURE!r} or {MONITOR!r}")
@@ -160,10 +193,12 @@ class SeatEnv(gym.Env[Any, Any]):
             self.observation_space = self._interface.observation_space
             self.action_space: spaces.Space[Any] = self._interface.action_space
         else:
+            if monitor_reward == "detection":
+                monitor_reward = DetectionReward()
             if monitor_reward is None or not callable(monitor_reward):
                 raise ValueError(
-                    f"monitor_reward={monitor_reward!r}: a learning monitor needs a reward "
-                    "function fn(process, flags) -> float (e.g. a detection score)"
+                    f"monitor_reward={monitor_reward!r}: a learning monitor needs a reward: "
+                    "'detection' or a function fn(process, flags) -> float"
                 )
             self._monitor_reward = monitor_reward
             self.observation_space = monitor_observation_space(process.family)
@@ -185,6 +220,10 @@ class SeatEnv(gym.Env[Any, Any]):
         """
         process = reset_seeded(self, self._process, seed, options)
         self._decide.reset(process.seat_rng())
+        if self.learner == MONITOR:
+            reset = getattr(self._monitor_reward, "reset", None)
+            if callable(reset):
+                reset()
         process.play_until(self.learner, self._decide)
         return self._observe(), {}
 

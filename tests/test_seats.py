@@ -323,3 +323,26 @@ def test_the_game_pays_nature_its_regret_at_the_end():
     oracle = OracleReference()(game.process)
     assert totals[NATURE] == pytest.approx(oracle - totals[DECISION])
     assert oracle > totals[DECISION]
+
+
+def test_a_monitor_seat_paid_by_detection_scores_delay_and_false_alarms():
+    """ "detection": -1 per step a change stays undetected, -λ per false alarm (t = 0 included)."""
+    from ns_pz.nature import DiscreteScheduler, ScriptedNature, StepWiseUpdate
+
+    nature = ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({3}), [0.5])})
+    env = ns_pz.single_agent(
+        "ns_pz/CartPole-v0",
+        "monitor",
+        {DECISION: balance},
+        monitor_reward="detection",
+        nature=nature,
+        notification="basic",
+    )
+    env.reset(seed=0)
+    alarm, quiet = np.ones(6, np.int64), np.zeros(6, np.int64)
+    # turn t speaks of transition t-1; the change hits transition 3, detected at turn 6
+    plan = [alarm, quiet, quiet, quiet, quiet, quiet, alarm, quiet]
+    rewards = [env.step(flags)[1] for flags in plan]
+    assert rewards == [-10.0, 0.0, 0.0, 0.0, -1.0, -1.0, 0.0, 0.0]
+    env.reset(seed=0)
+    assert env.step(quiet)[1] == 0.0  # nothing pending after a reset
