@@ -9,6 +9,7 @@
     ns-pz bench estimate paper --size full    time a few seeds per cell, project the run
     ns-pz bench list                      shipped specs
     ns-pz envs                            registered envs, their θ, defaults and bounds
+    ns-pz --version
 
 Exit codes: 0 success; 1 some trials failed (their errors are in the results); 2 bad usage or a
 spec/results directory that cannot be used; 130 interrupted (finish with ``--resume``).
@@ -23,6 +24,7 @@ import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from ns_pz import __version__
 from ns_pz.envs.registry import registered_envs, spec
 
 EXIT_OK, EXIT_FAILED_TRIALS, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -166,6 +168,7 @@ def _parser() -> argparse.ArgumentParser:
         description=__doc__.splitlines()[0],
         epilog="Exit codes: 0 ok, 1 some trials failed, 2 usage error, 130 interrupted.",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     commands.add_parser("envs", help="list registered environments and their parameters")
     bench = commands.add_parser("bench", help="run and report the paper's benchmark")

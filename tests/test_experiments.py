@@ -435,6 +435,16 @@ def test_cli_run_table_plot_and_exit_codes(tmp_path: Path) -> None:
     assert exited.value.code == 0
 
 
+def test_version_flag_prints_the_version(capsys: pytest.CaptureFixture[str]) -> None:
+    """``ns-pz --version`` prints the package version and exits 0."""
+    import ns_pz
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.strip() == f"ns-pz {ns_pz.__version__}"
+
+
 def test_bench_list_names_every_shipped_spec() -> None:
     """``bench list`` shows each shipped spec."""
     lines: list[str] = []
