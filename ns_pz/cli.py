@@ -18,14 +18,19 @@ spec/results directory that cannot be used; 130 interrupted (finish with ``--res
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ns_pz import __version__
 from ns_pz.envs.registry import registered_envs, spec
+
+if TYPE_CHECKING:
+    from ns_pz.experiments.store import ResultStore
 
 EXIT_OK, EXIT_FAILED_TRIALS, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 PAPER = "paper"
@@ -72,6 +77,7 @@ def _run_dirs(root: Path) -> list[Path]:
 def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench run``: load every spec first (so a bad one stops the run before any trial)."""
     from ns_pz.experiments import SpecError, load_spec, make_backend, run_spec
+    from ns_pz.experiments.lock import locked
     from ns_pz.experiments.store import ResultStore
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
@@ -82,16 +88,20 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         if targets.count(target) > 1:
             raise SpecError(f"two of the specs would write to {target}; name each spec once")
     for experiment, target in zip(specs, targets, strict=True):
-        ResultStore(target).check(experiment, args.resume)
+        ResultStore(target).check(experiment, args.resume)  # writes nothing
     failed = 0
-    for experiment, target in zip(specs, targets, strict=True):
-        summary = run_spec(experiment, target, backend, resume=args.resume, progress=sys.stderr)
-        failed += summary.failed
-        out(f"\n{_tables(target, 'markdown')}\n")
-        out(
-            f"({summary.ran} trials run, {summary.skipped} already done, {summary.failed} "
-            f"failed; results in {target}/results.csv)"
-        )
+    with contextlib.ExitStack() as held:  # one run per directory, from the check to the end
+        for experiment, target in zip(specs, targets, strict=True):
+            held.enter_context(locked(target))
+            ResultStore(target).check(experiment, args.resume)  # again, now no one else writes
+        for experiment, target in zip(specs, targets, strict=True):
+            summary = run_spec(experiment, target, backend, resume=args.resume, progress=sys.stderr)
+            failed += summary.failed
+            out(f"\n{_tables(target, 'markdown')}\n")
+            out(
+                f"({summary.ran} trials run, {summary.skipped} already done, {summary.failed} "
+                f"failed; results in {target}/results.csv)"
+            )
     return EXIT_FAILED_TRIALS if failed else EXIT_OK
 
 
@@ -103,7 +113,17 @@ def _tables(run_dir: Path, fmt: str) -> str:
     store = ResultStore(run_dir)
     record = store.spec_record()
     title = f"{record['spec']['title']} [{record['name']}, {record['spec']['size']}]"
+    _report_unreadable(store)
     return table(store.rows(), title, fmt, optimum_for(record["spec"]), record["spec"])
+
+
+def _report_unreadable(store: ResultStore) -> None:
+    """Name, on stderr, the trial files a report leaves out because they cannot be read."""
+    for path, reason in store.unreadable():
+        print(
+            f"ns-pz: skipped {path}: unreadable ({reason}); `bench run --resume` re-runs it",
+            file=sys.stderr,
+        )
 
 
 def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:
@@ -121,6 +141,7 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     for run_dir in _run_dirs(Path(args.dir)):
         store = ResultStore(run_dir)
         record = store.spec_record()
+        _report_unreadable(store)
         for path in plot(store.rows(), record["spec"]["title"], run_dir / "plots", record["spec"]):
             out(str(path))
     return EXIT_OK

@@ -24,6 +24,7 @@ from ns_pz.experiments import (
     run_spec,
     shipped_specs,
 )
+from ns_pz.experiments.lock import DirectoryLocked
 from ns_pz.experiments.report import table
 
 TINY = """
@@ -326,6 +327,73 @@ def test_killed_run_resumes_losing_and_duplicating_nothing(tmp_path: Path) -> No
     resumed = without_times(ResultStore(out / "tiny-quick").rows())
     assert resumed == without_times(ResultStore(tmp_path / "clean").rows())
     assert len(resumed) == 320
+
+
+HOLD_LOCK = """
+import sys, time
+from ns_pz.experiments.lock import locked
+with locked(sys.argv[1]):
+    print("locked", flush=True)
+    time.sleep(60)
+"""
+
+
+def test_a_second_run_into_a_locked_directory_exits_2_naming_it_and_the_holder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two runs on one --out: the second is refused with the directory and the holder's PID."""
+    spec_path = write_spec(tmp_path)
+    target = tmp_path / "o" / "tiny-quick"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLD_LOCK, str(target)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+        command = ["bench", "run", str(spec_path), "--out", str(tmp_path / "o"), "--workers", "1"]
+        assert main(command, print) == 2
+        error = capsys.readouterr().err
+        assert str(target) in error and f"PID {holder.pid}" in error
+        assert not list((target / "trials").glob("*.json"))
+        with pytest.raises(DirectoryLocked, match=f"PID {holder.pid}"):
+            run_spec(load_spec(spec_path), target, LocalBackend(1))
+    finally:
+        holder.kill()
+        holder.wait()
+    # A holder that died (here: killed) leaves the lock file but not the lock.
+    assert main(command, print) == 0
+
+
+def test_a_truncated_trial_file_is_named_skipped_by_table_and_rerun_by_resume(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A trial file cut short: `bench table` names it and goes on; --resume re-runs its trial."""
+    spec_path = write_spec(tmp_path)
+    out = tmp_path / "o"
+    run = ["bench", "run", str(spec_path), "--out", str(out), "--workers", "1"]
+    assert main(run, print) == 0
+    clean = without_times(ResultStore(out / "tiny-quick").rows())
+    victim = sorted((out / "tiny-quick" / "trials").glob("*.json"))[3]
+    victim.write_text(victim.read_text()[:40])
+    (out / "tiny-quick" / "trials" / "stray.json").write_text("[1, 2]")
+    capsys.readouterr()
+    assert main(["bench", "table", str(out)], print) == 0
+    error = capsys.readouterr().err
+    assert f"skipped {victim}: unreadable" in error and "stray.json: unreadable" in error
+    assert main([*run, "--resume"], print) == 0
+    captured = capsys.readouterr()
+    assert f"{victim} is unreadable" in captured.err
+    assert "(1 trials run, 31 already done, 0 failed" in captured.out
+    (out / "tiny-quick" / "trials" / "stray.json").unlink()
+    assert without_times(ResultStore(out / "tiny-quick").rows()) == clean
+
+
+def test_a_corrupt_spec_record_is_named(tmp_path: Path) -> None:
+    """A spec.json cut short is refused with its path, not a bare JSONDecodeError."""
+    run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
+    meta = tmp_path / "out" / "spec.json"
+    meta.write_text(meta.read_text()[:10])
+    with pytest.raises(SpecError, match=f"{meta} is not valid JSON"):
+        ResultStore(tmp_path / "out").spec_record()
 
 
 def test_results_of_another_spec_are_refused(tmp_path: Path) -> None:

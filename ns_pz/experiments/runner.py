@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import TextIO
 
 from ns_pz.experiments.backends import Backend
+from ns_pz.experiments.lock import locked
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
 from ns_pz.experiments.store import ResultStore
@@ -43,32 +44,40 @@ def run_spec(
         progress: Where to draw a progress line (``None``: no progress line).
         on_row: Called with each new row after it is stored.
 
+    A trial whose file cannot be read (cut short) counts as not done and runs again; the file is
+    named on ``progress``. ``out`` is locked for the run (:mod:`ns_pz.experiments.lock`).
+
     Raises:
         SpecError: ``out`` holds results of another spec, or of this one without ``resume``.
+        DirectoryLocked: Another process is running into ``out``.
     """
     store = ResultStore(out)
-    store.prepare(spec, resume)
-    trials = expand(spec)
-    finished = store.finished(spec.digest())
-    todo = [trial for trial in trials if trial.key not in finished]
-    bar = None
-    if progress is not None:
-        label = f"{spec.name} ({spec.size})"
-        bar = Progress(len(trials), len(trials) - len(todo), label, progress)
-    failed = 0
-    try:
-        for _, row in backend.run(spec, todo):
-            store.write(row)
-            ok = row["status"] == "ok"
-            failed += not ok
+    with locked(store.root):
+        store.prepare(spec, resume)
+        trials = expand(spec)
+        finished = store.finished(spec.digest())
+        todo = [trial for trial in trials if trial.key not in finished]
+        if progress is not None:
+            for path, reason in store.unreadable():
+                progress.write(f"{path} is unreadable ({reason}); its trial runs again\n")
+        bar = None
+        if progress is not None:
+            label = f"{spec.name} ({spec.size})"
+            bar = Progress(len(trials), len(trials) - len(todo), label, progress)
+        failed = 0
+        try:
+            for _, row in backend.run(spec, todo):
+                store.write(row)
+                ok = row["status"] == "ok"
+                failed += not ok
+                if bar is not None:
+                    bar.advance(ok)
+                if on_row is not None:
+                    on_row(row)
+        finally:
+            store.write_csv()
             if bar is not None:
-                bar.advance(ok)
-            if on_row is not None:
-                on_row(row)
-    finally:
-        store.write_csv()
-        if bar is not None:
-            bar.close()
+                bar.close()
     return RunSummary(store.root, len(trials), len(trials) - len(todo), len(todo), failed)
 
 
