@@ -135,6 +135,7 @@ def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:
 
 def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench plot``: PNG figures into each run's ``plots/`` folder."""
+    from ns_pz.experiments.optimum import optimum_for
     from ns_pz.experiments.report import plot
     from ns_pz.experiments.store import ResultStore
 
@@ -142,7 +143,11 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         store = ResultStore(run_dir)
         record = store.spec_record()
         _report_unreadable(store)
-        for path in plot(store.rows(), record["spec"]["title"], run_dir / "plots", record["spec"]):
+        spec_record = record["spec"]
+        optimum = optimum_for(spec_record)
+        for path in plot(
+            store.rows(), spec_record["title"], run_dir / "plots", spec_record, optimum
+        ):
             out(str(path))
     return EXIT_OK
 

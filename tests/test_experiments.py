@@ -592,6 +592,42 @@ def test_tabular_tables_carry_the_optimum_and_no_agent_beats_it(tmp_path: Path) 
     assert "| optimum |" in text_table and "regret to the optimum" in text_table
 
 
+def test_tables_and_figures_say_what_the_labels_and_plus_minus_mean_and_draw_the_optimum(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """WN/WON, ± = one standard error and n under every table and figure; dashed optimum."""
+    from ns_pz.experiments.optimum import optimum_for
+    from ns_pz.experiments.report import plot, summarise
+
+    run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
+    store = ResultStore(tmp_path / "out")
+    record = store.spec_record()["spec"]
+    optimum = optimum_for(record)
+    markdown = table(store.rows(), "t", optimum=optimum, spec=record)
+    legend = "WN = with notification (told what changed; plans with the current θ); WON = "
+    assert markdown.count(legend) == 1
+    assert "Mean episode return ± one standard error, n = 4 episodes per cell." in markdown
+    latex = table(store.rows(), "t", "latex", optimum, record)
+    assert r"$\pm$ one standard error, n = 4 episodes" in latex and "θ" not in latex
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    saved: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *args, **kwargs: saved.append(self))
+    plot(store.rows(), "t", tmp_path / "plots", record, optimum)
+    means, returns = saved
+    _, columns, _ = summarise(store.rows(), record)
+    expected = sorted(optimum(*column.split()) for column in columns)  # type: ignore[misc]
+    bars = means.axes[0]
+    drawn = [c for c in bars.collections if c.get_gid() == "optimum"]
+    assert sorted(segment[0][1] for c in drawn for segment in c.get_segments()) == expected
+    assert bars.get_legend_handles_labels()[1].count("exact optimum") == 1
+    boxes = [line for ax in returns.axes for line in ax.lines if line.get_gid() == "optimum"]
+    assert sorted(line.get_ydata()[0] for line in boxes) == expected
+    for figure in (means, returns):
+        assert any("one standard error, n = 4" in text.get_text() for text in figure.texts)
+
+
 def test_non_tabular_tables_have_no_optimum_row() -> None:
     """CartPole has no exact optimum: no row, no regret table."""
     from ns_pz.experiments.optimum import optimum_for
