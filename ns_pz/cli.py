@@ -162,7 +162,7 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     out("| spec | setting | notification | agent | s/trial | trials | projected s (1 core) |")
     out("|---|---|---|---|---|---|---|")
     for experiment in specs:
-        for cost in estimate(experiment, args.samples):
+        for cost in estimate(experiment, args.samples, progress=sys.stderr):
             grand += cost.total_seconds
             out(
                 f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} | "

@@ -550,6 +550,20 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
         estimate(experiment, samples=0)
 
 
+def test_estimate_draws_a_progress_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`bench estimate` reports its sampled trials on stderr as `bench run` does."""
+    import io
+
+    from ns_pz.experiments.runner import estimate
+
+    stream = io.StringIO()
+    estimate(load_spec(write_spec(tmp_path), "full"), samples=2, progress=stream)
+    assert stream.getvalue().splitlines()[-1].startswith("estimate tiny (full) [")
+    assert "16/16 trials" in stream.getvalue()
+    main(["bench", "estimate", str(write_spec(tmp_path)), "--samples", "1"], print)
+    assert "estimate tiny (full) [" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("name", sorted(shipped_specs()))
 def test_spec_round_trips_through_its_record(name: str) -> None:
     """A results directory's spec.json rebuilds the very same spec (same digest)."""

@@ -12,7 +12,7 @@ from ns_pz.experiments.lock import locked
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
 from ns_pz.experiments.store import ResultStore
-from ns_pz.experiments.trials import expand, run_trial
+from ns_pz.experiments.trials import Trial, expand, run_trial
 
 
 @dataclass(frozen=True)
@@ -97,8 +97,15 @@ class CellCost:
         return self.seconds_per_trial * self.trials
 
 
-def estimate(spec: ExperimentSpec, samples: int = 2) -> list[CellCost]:
+def estimate(
+    spec: ExperimentSpec, samples: int = 2, progress: TextIO | None = None
+) -> list[CellCost]:
     """Run the first ``samples`` seeds of every agent × cell here, serially, and project.
+
+    Args:
+        spec: The experiment.
+        samples: Seeds timed per agent and cell.
+        progress: Where to draw a progress line over the sampled trials (``None``: none).
 
     Raises:
         ValueError: ``samples`` < 1.
@@ -110,22 +117,37 @@ def estimate(spec: ExperimentSpec, samples: int = 2) -> list[CellCost]:
     for trial in expand(spec):
         key = (trial.cell.index, trial.cell.notification, trial.agent.label)
         groups.setdefault(key, []).append(trial)
+    bar = None
+    if progress is not None:
+        total = sum(min(samples, len(trials)) for trials in groups.values())
+        bar = Progress(total, 0, f"estimate {spec.name} ({spec.size})", progress)
     costs = []
-    for trials in groups.values():
-        times = []
-        for trial in trials[:samples]:
-            row = run_trial(spec, trial)
-            if row["status"] != "ok":
-                raise RuntimeError(f"trial {trial.key} failed: {row['error']}")
-            times.append(row["wall_time"])
-        first = trials[0]
-        costs.append(
-            CellCost(
-                first.cell.setting,
-                LEVEL_LABELS[first.cell.notification],
-                first.agent.label,
-                sum(times) / len(times),
-                len(trials),
-            )
-        )
+    try:
+        for trials in groups.values():
+            costs.append(_time_group(spec, trials[:samples], len(trials), bar))
+    finally:
+        if bar is not None:
+            bar.close()
     return costs
+
+
+def _time_group(
+    spec: ExperimentSpec, sampled: list[Trial], trials: int, bar: Progress | None
+) -> CellCost:
+    """Run ``sampled`` (one agent in one cell); their mean time projected to ``trials``."""
+    times = []
+    for trial in sampled:
+        row = run_trial(spec, trial)
+        if row["status"] != "ok":
+            raise RuntimeError(f"trial {trial.key} failed: {row['error']}")
+        times.append(row["wall_time"])
+        if bar is not None:
+            bar.advance()
+    first = sampled[0]
+    return CellCost(
+        first.cell.setting,
+        LEVEL_LABELS[first.cell.notification],
+        first.agent.label,
+        sum(times) / len(times),
+        trials,
+    )
