@@ -158,20 +158,27 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ns_pz.experiments.runner import estimate
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
-    grand = 0.0
-    out("| spec | setting | notification | agent | s/trial | trials | projected s (1 core) |")
-    out("|---|---|---|---|---|---|---|")
+    grand = grand_cpu = 0.0
+    out(
+        "| spec | setting | notification | agent | s/trial | CPU s/trial | trials "
+        "| projected s (1 core) |"
+    )
+    out("|---|---|---|---|---|---|---|---|")
     for experiment in specs:
         for cost in estimate(experiment, args.samples, progress=sys.stderr):
             grand += cost.total_seconds
+            grand_cpu += cost.total_cpu_seconds
             out(
                 f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} | "
-                f"{cost.seconds_per_trial:.3f} | {cost.trials} | {cost.total_seconds:.0f} |"
+                f"{cost.seconds_per_trial:.3f} | {cost.cpu_seconds_per_trial:.3f} | "
+                f"{cost.trials} | {cost.total_seconds:.0f} |"
             )
-    hours = grand / 3600 / args.workers
+    workers = args.workers
     out(
-        f"\nprojected wall time on {args.workers} worker(s): {grand / args.workers:.0f} s "
-        f"({hours:.2f} h), from {args.samples} sampled seed(s) per cell"
+        f"\nprojected wall time on {workers} worker(s): {grand / workers:.0f} s "
+        f"({grand / workers / 3600:.2f} h) at this machine's present load; "
+        f"{grand_cpu / workers:.0f} s ({grand_cpu / workers / 3600:.2f} h) on idle cores "
+        f"(from CPU time); from {args.samples} sampled seed(s) per cell"
     )
     return EXIT_OK
 

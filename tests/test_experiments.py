@@ -539,6 +539,7 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
     costs = estimate(experiment, samples=1)
     assert len(costs) == 2 * 2 * 2
     assert all(c.trials == 6 and c.seconds_per_trial > 0 for c in costs)
+    assert all(0 < c.cpu_seconds_per_trial and c.total_cpu_seconds > 0 for c in costs)
     lines: list[str] = []
     spec_path = str(write_spec(tmp_path))
     assert (
@@ -546,6 +547,7 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
         == 0
     )
     assert "projected wall time on 2 worker(s)" in lines[-1]
+    assert "at this machine's present load;" in lines[-1] and "on idle cores" in lines[-1]
     with pytest.raises(ValueError, match="samples=0 must be an integer >= 1"):
         estimate(experiment, samples=0)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -83,18 +84,28 @@ def run_spec(
 
 @dataclass(frozen=True)
 class CellCost:
-    """Measured cost of one agent in one cell."""
+    """Measured cost of one agent in one cell.
+
+    ``seconds_per_trial`` is wall time, so it grows when other programs share the machine;
+    ``cpu_seconds_per_trial`` (this process's CPU time) is what an otherwise idle core takes.
+    """
 
     setting: str
     notification: str
     agent: str
     seconds_per_trial: float
     trials: int
+    cpu_seconds_per_trial: float
 
     @property
     def total_seconds(self) -> float:
-        """Projected time of all the cell's trials on one core."""
+        """Projected wall time of all the cell's trials on one core, loaded as now."""
         return self.seconds_per_trial * self.trials
+
+    @property
+    def total_cpu_seconds(self) -> float:
+        """Projected time of all the cell's trials on one otherwise idle core."""
+        return self.cpu_seconds_per_trial * self.trials
 
 
 def estimate(
@@ -135,9 +146,11 @@ def _time_group(
     spec: ExperimentSpec, sampled: list[Trial], trials: int, bar: Progress | None
 ) -> CellCost:
     """Run ``sampled`` (one agent in one cell); their mean time projected to ``trials``."""
-    times = []
+    times, cpu_times = [], []
     for trial in sampled:
+        cpu_start = time.process_time()
         row = run_trial(spec, trial)
+        cpu_times.append(time.process_time() - cpu_start)
         if row["status"] != "ok":
             raise RuntimeError(f"trial {trial.key} failed: {row['error']}")
         times.append(row["wall_time"])
@@ -150,4 +163,5 @@ def _time_group(
         first.agent.label,
         sum(times) / len(times),
         trials,
+        sum(cpu_times) / len(cpu_times),
     )
