@@ -26,6 +26,7 @@ LEVEL_MEANINGS = {
     "WN": "with notification (told what changed; plans with the current θ)",
     "WON": "without notification (no flags; plans with θ_0)",
     "basic": "changed flags only (plans with θ_0)",
+    "WD": "with a change detector (told what it detects, which may be late or wrong)",
 }
 """What each notification label in a column name stands for."""
 
