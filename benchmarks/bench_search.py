@@ -225,7 +225,7 @@ def measure_compile() -> None:
         "\nCompile time (fresh process: import ns_pz + first compiled search, tabular + CartPole)"
     )
     with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as cwd:
-        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        env = {**os.environ, "NS_PZ_CACHE_DIR": cache}
         for label in ("empty cache", "warm cache"):
             out = subprocess.run(
                 [sys.executable, "-c", COMPILE_SNIPPET],

@@ -235,3 +235,11 @@ register(
     max_episode_steps=200,
     description="Bridge 5x8; θ: slip_left (columns 0-3), slip_right (columns 4-7)",
 )
+
+# NS-Gym's Bridge behind NS-Gym's API (ns_pz.compat), in a namespace of its own so both packages
+# can coexist. Gymnasium only: it is a compat env, not an ns_pz family. The entry point is a
+# string, so ns_pz.compat loads when the env is made, not on `import ns_pz`.
+COMPAT_BRIDGE_ID = "ns_pz_compat/Bridge-v0"
+gymnasium.register(
+    id=COMPAT_BRIDGE_ID, entry_point="ns_pz.compat.envs.Bridge:Bridge", max_episode_steps=100
+)

@@ -11,6 +11,8 @@ Importing ``ns_pz`` registers its environments with Gymnasium::
     game = ns_pz.make("ns_pz/CartPole-v0", nature=nature)  # the PettingZoo AEC game
 """
 
+# First: in a source checkout, importing it maps ns_pz.envs to envs/ and ns_pz.agents to agents/.
+from ns_pz import _source_tree  # noqa: F401
 from ns_pz.errors import (
     NSPZError,
     ParamError,

@@ -9,6 +9,7 @@
     ns-pz bench estimate paper --size full    time a few seeds per cell, project the run
     ns-pz bench list                      shipped specs
     ns-pz envs                            registered envs, their θ, defaults and bounds
+    ns-pz --version
 
 Exit codes: 0 success; 1 some trials failed (their errors are in the results); 2 bad usage or a
 spec/results directory that cannot be used; 130 interrupted (finish with ``--resume``).
@@ -17,13 +18,19 @@ spec/results directory that cannot be used; 130 interrupted (finish with ``--res
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from ns_pz import __version__
 from ns_pz.envs.registry import registered_envs, spec
+
+if TYPE_CHECKING:
+    from ns_pz.experiments.store import ResultStore
 
 EXIT_OK, EXIT_FAILED_TRIALS, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 PAPER = "paper"
@@ -70,6 +77,7 @@ def _run_dirs(root: Path) -> list[Path]:
 def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench run``: load every spec first (so a bad one stops the run before any trial)."""
     from ns_pz.experiments import SpecError, load_spec, make_backend, run_spec
+    from ns_pz.experiments.lock import locked
     from ns_pz.experiments.store import ResultStore
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
@@ -80,16 +88,20 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         if targets.count(target) > 1:
             raise SpecError(f"two of the specs would write to {target}; name each spec once")
     for experiment, target in zip(specs, targets, strict=True):
-        ResultStore(target).check(experiment, args.resume)
+        ResultStore(target).check(experiment, args.resume)  # writes nothing
     failed = 0
-    for experiment, target in zip(specs, targets, strict=True):
-        summary = run_spec(experiment, target, backend, resume=args.resume, progress=sys.stderr)
-        failed += summary.failed
-        out(f"\n{_tables(target, 'markdown')}\n")
-        out(
-            f"({summary.ran} trials run, {summary.skipped} already done, {summary.failed} "
-            f"failed; results in {target}/results.csv)"
-        )
+    with contextlib.ExitStack() as held:  # one run per directory, from the check to the end
+        for experiment, target in zip(specs, targets, strict=True):
+            held.enter_context(locked(target))
+            ResultStore(target).check(experiment, args.resume)  # again, now no one else writes
+        for experiment, target in zip(specs, targets, strict=True):
+            summary = run_spec(experiment, target, backend, resume=args.resume, progress=sys.stderr)
+            failed += summary.failed
+            out(f"\n{_tables(target, 'markdown')}\n")
+            out(
+                f"({summary.ran} trials run, {summary.skipped} already done, {summary.failed} "
+                f"failed; results in {target}/results.csv)"
+            )
     return EXIT_FAILED_TRIALS if failed else EXIT_OK
 
 
@@ -101,7 +113,17 @@ def _tables(run_dir: Path, fmt: str) -> str:
     store = ResultStore(run_dir)
     record = store.spec_record()
     title = f"{record['spec']['title']} [{record['name']}, {record['spec']['size']}]"
+    _report_unreadable(store)
     return table(store.rows(), title, fmt, optimum_for(record["spec"]), record["spec"])
+
+
+def _report_unreadable(store: ResultStore) -> None:
+    """Name, on stderr, the trial files a report leaves out because they cannot be read."""
+    for path, reason in store.unreadable():
+        print(
+            f"ns-pz: skipped {path}: unreadable ({reason}); `bench run --resume` re-runs it",
+            file=sys.stderr,
+        )
 
 
 def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:
@@ -113,13 +135,19 @@ def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:
 
 def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench plot``: PNG figures into each run's ``plots/`` folder."""
+    from ns_pz.experiments.optimum import optimum_for
     from ns_pz.experiments.report import plot
     from ns_pz.experiments.store import ResultStore
 
     for run_dir in _run_dirs(Path(args.dir)):
         store = ResultStore(run_dir)
         record = store.spec_record()
-        for path in plot(store.rows(), record["spec"]["title"], run_dir / "plots", record["spec"]):
+        _report_unreadable(store)
+        spec_record = record["spec"]
+        optimum = optimum_for(spec_record)
+        for path in plot(
+            store.rows(), spec_record["title"], run_dir / "plots", spec_record, optimum
+        ):
             out(str(path))
     return EXIT_OK
 
@@ -130,20 +158,27 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ns_pz.experiments.runner import estimate
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
-    grand = 0.0
-    out("| spec | setting | notification | agent | s/trial | trials | projected s (1 core) |")
-    out("|---|---|---|---|---|---|---|")
+    grand = grand_cpu = 0.0
+    out(
+        "| spec | setting | notification | agent | s/trial | CPU s/trial | trials "
+        "| projected s (1 core) |"
+    )
+    out("|---|---|---|---|---|---|---|---|")
     for experiment in specs:
-        for cost in estimate(experiment, args.samples):
+        for cost in estimate(experiment, args.samples, progress=sys.stderr):
             grand += cost.total_seconds
+            grand_cpu += cost.total_cpu_seconds
             out(
                 f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} | "
-                f"{cost.seconds_per_trial:.3f} | {cost.trials} | {cost.total_seconds:.0f} |"
+                f"{cost.seconds_per_trial:.3f} | {cost.cpu_seconds_per_trial:.3f} | "
+                f"{cost.trials} | {cost.total_seconds:.0f} |"
             )
-    hours = grand / 3600 / args.workers
+    workers = args.workers
     out(
-        f"\nprojected wall time on {args.workers} worker(s): {grand / args.workers:.0f} s "
-        f"({hours:.2f} h), from {args.samples} sampled seed(s) per cell"
+        f"\nprojected wall time on {workers} worker(s): {grand / workers:.0f} s "
+        f"({grand / workers / 3600:.2f} h) at this machine's present load; "
+        f"{grand_cpu / workers:.0f} s ({grand_cpu / workers / 3600:.2f} h) on idle cores "
+        f"(from CPU time); from {args.samples} sampled seed(s) per cell"
     )
     return EXIT_OK
 
@@ -166,6 +201,7 @@ def _parser() -> argparse.ArgumentParser:
         description=__doc__.splitlines()[0],
         epilog="Exit codes: 0 ok, 1 some trials failed, 2 usage error, 130 interrupted.",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     commands.add_parser("envs", help="list registered environments and their parameters")
     bench = commands.add_parser("bench", help="run and report the paper's benchmark")

@@ -24,6 +24,7 @@ from ns_pz.experiments import (
     run_spec,
     shipped_specs,
 )
+from ns_pz.experiments.lock import DirectoryLocked
 from ns_pz.experiments.report import table
 
 TINY = """
@@ -328,6 +329,73 @@ def test_killed_run_resumes_losing_and_duplicating_nothing(tmp_path: Path) -> No
     assert len(resumed) == 320
 
 
+HOLD_LOCK = """
+import sys, time
+from ns_pz.experiments.lock import locked
+with locked(sys.argv[1]):
+    print("locked", flush=True)
+    time.sleep(60)
+"""
+
+
+def test_a_second_run_into_a_locked_directory_exits_2_naming_it_and_the_holder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Two runs on one --out: the second is refused with the directory and the holder's PID."""
+    spec_path = write_spec(tmp_path)
+    target = tmp_path / "o" / "tiny-quick"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", HOLD_LOCK, str(target)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+        command = ["bench", "run", str(spec_path), "--out", str(tmp_path / "o"), "--workers", "1"]
+        assert main(command, print) == 2
+        error = capsys.readouterr().err
+        assert str(target) in error and f"PID {holder.pid}" in error
+        assert not list((target / "trials").glob("*.json"))
+        with pytest.raises(DirectoryLocked, match=f"PID {holder.pid}"):
+            run_spec(load_spec(spec_path), target, LocalBackend(1))
+    finally:
+        holder.kill()
+        holder.wait()
+    # A holder that died (here: killed) leaves the lock file but not the lock.
+    assert main(command, print) == 0
+
+
+def test_a_truncated_trial_file_is_named_skipped_by_table_and_rerun_by_resume(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A trial file cut short: `bench table` names it and goes on; --resume re-runs its trial."""
+    spec_path = write_spec(tmp_path)
+    out = tmp_path / "o"
+    run = ["bench", "run", str(spec_path), "--out", str(out), "--workers", "1"]
+    assert main(run, print) == 0
+    clean = without_times(ResultStore(out / "tiny-quick").rows())
+    victim = sorted((out / "tiny-quick" / "trials").glob("*.json"))[3]
+    victim.write_text(victim.read_text()[:40])
+    (out / "tiny-quick" / "trials" / "stray.json").write_text("[1, 2]")
+    capsys.readouterr()
+    assert main(["bench", "table", str(out)], print) == 0
+    error = capsys.readouterr().err
+    assert f"skipped {victim}: unreadable" in error and "stray.json: unreadable" in error
+    assert main([*run, "--resume"], print) == 0
+    captured = capsys.readouterr()
+    assert f"{victim} is unreadable" in captured.err
+    assert "(1 trials run, 31 already done, 0 failed" in captured.out
+    (out / "tiny-quick" / "trials" / "stray.json").unlink()
+    assert without_times(ResultStore(out / "tiny-quick").rows()) == clean
+
+
+def test_a_corrupt_spec_record_is_named(tmp_path: Path) -> None:
+    """A spec.json cut short is refused with its path, not a bare JSONDecodeError."""
+    run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
+    meta = tmp_path / "out" / "spec.json"
+    meta.write_text(meta.read_text()[:10])
+    with pytest.raises(SpecError, match=f"{meta} is not valid JSON"):
+        ResultStore(tmp_path / "out").spec_record()
+
+
 def test_results_of_another_spec_are_refused(tmp_path: Path) -> None:
     """No silent mixing: a directory of another spec (or size) is refused, even on resume."""
     run_spec(load_spec(write_spec(tmp_path), "quick"), tmp_path / "out", LocalBackend(1))
@@ -435,6 +503,16 @@ def test_cli_run_table_plot_and_exit_codes(tmp_path: Path) -> None:
     assert exited.value.code == 0
 
 
+def test_version_flag_prints_the_version(capsys: pytest.CaptureFixture[str]) -> None:
+    """``ns-pz --version`` prints the package version and exits 0."""
+    import ns_pz
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.strip() == f"ns-pz {ns_pz.__version__}"
+
+
 def test_bench_list_names_every_shipped_spec() -> None:
     """``bench list`` shows each shipped spec."""
     lines: list[str] = []
@@ -461,6 +539,7 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
     costs = estimate(experiment, samples=1)
     assert len(costs) == 2 * 2 * 2
     assert all(c.trials == 6 and c.seconds_per_trial > 0 for c in costs)
+    assert all(0 < c.cpu_seconds_per_trial and c.total_cpu_seconds > 0 for c in costs)
     lines: list[str] = []
     spec_path = str(write_spec(tmp_path))
     assert (
@@ -468,8 +547,23 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
         == 0
     )
     assert "projected wall time on 2 worker(s)" in lines[-1]
+    assert "at this machine's present load;" in lines[-1] and "on idle cores" in lines[-1]
     with pytest.raises(ValueError, match="samples=0 must be an integer >= 1"):
         estimate(experiment, samples=0)
+
+
+def test_estimate_draws_a_progress_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`bench estimate` reports its sampled trials on stderr as `bench run` does."""
+    import io
+
+    from ns_pz.experiments.runner import estimate
+
+    stream = io.StringIO()
+    estimate(load_spec(write_spec(tmp_path), "full"), samples=2, progress=stream)
+    assert stream.getvalue().splitlines()[-1].startswith("estimate tiny (full) [")
+    assert "16/16 trials" in stream.getvalue()
+    main(["bench", "estimate", str(write_spec(tmp_path)), "--samples", "1"], print)
+    assert "estimate tiny (full) [" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("name", sorted(shipped_specs()))
@@ -512,6 +606,42 @@ def test_tabular_tables_carry_the_optimum_and_no_agent_beats_it(tmp_path: Path) 
             assert summary.mean <= best + 4 * 0.05, (agent, column, summary, best)
     text_table = table(store.rows(), "t", optimum=optimum, spec=record)
     assert "| optimum |" in text_table and "regret to the optimum" in text_table
+
+
+def test_tables_and_figures_say_what_the_labels_and_plus_minus_mean_and_draw_the_optimum(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """WN/WON, ± = one standard error and n under every table and figure; dashed optimum."""
+    from ns_pz.experiments.optimum import optimum_for
+    from ns_pz.experiments.report import plot, summarise
+
+    run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
+    store = ResultStore(tmp_path / "out")
+    record = store.spec_record()["spec"]
+    optimum = optimum_for(record)
+    markdown = table(store.rows(), "t", optimum=optimum, spec=record)
+    legend = "WN = with notification (told what changed; plans with the current θ); WON = "
+    assert markdown.count(legend) == 1
+    assert "Mean episode return ± one standard error, n = 4 episodes per cell." in markdown
+    latex = table(store.rows(), "t", "latex", optimum, record)
+    assert r"$\pm$ one standard error, n = 4 episodes" in latex and "θ" not in latex
+    pytest.importorskip("matplotlib")
+    from matplotlib.figure import Figure
+
+    saved: list[Figure] = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *args, **kwargs: saved.append(self))
+    plot(store.rows(), "t", tmp_path / "plots", record, optimum)
+    means, returns = saved
+    _, columns, _ = summarise(store.rows(), record)
+    expected = sorted(optimum(*column.split()) for column in columns)  # type: ignore[misc]
+    bars = means.axes[0]
+    drawn = [c for c in bars.collections if c.get_gid() == "optimum"]
+    assert sorted(segment[0][1] for c in drawn for segment in c.get_segments()) == expected
+    assert bars.get_legend_handles_labels()[1].count("exact optimum") == 1
+    boxes = [line for ax in returns.axes for line in ax.lines if line.get_gid() == "optimum"]
+    assert sorted(line.get_ydata()[0] for line in boxes) == expected
+    for figure in (means, returns):
+        assert any("one standard error, n = 4" in text.get_text() for text in figure.texts)
 
 
 def test_non_tabular_tables_have_no_optimum_row() -> None:

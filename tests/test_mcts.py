@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import subprocess
 import sys
 from dataclasses import dataclass
@@ -386,6 +388,58 @@ def test_importing_search_does_not_import_numba(tmp_path):
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path
     ).stdout
     assert out.strip() == "False"
+
+
+CACHE_SNIPPET = """
+import json, os, sys
+from pathlib import Path
+import numpy as np, ns_pz, ns_pz.agents, ns_pz.envs
+from ns_pz.agents.search import uct
+
+def compiled_files():
+    roots = {Path(m.__file__).parent for m in (ns_pz, ns_pz.envs, ns_pz.agents)}
+    return {str(p): p.stat().st_mtime_ns for r in roots for p in r.rglob("*.nb[ic]")}
+
+before = compiled_files()
+env = ns_pz.make_gym("ns_pz/FrozenLake-v0"); env.reset(seed=0); model = env.planning_model()
+uct(model, model.get_state(), np.random.default_rng(0), iterations=5, depth=5, backend="compiled")
+after = compiled_files()
+cached = sorted(p.name for p in Path(os.environ["NS_PZ_CACHE_DIR"]).rglob("*.nbi"))
+print(json.dumps({"package": sorted(p for p in after if before.get(p) != after[p]),
+                  "cache": cached}))
+"""
+
+
+@needs_numba
+def test_compiled_code_is_cached_outside_the_package(tmp_path):
+    """Numba's cache goes to NS_PZ_CACHE_DIR, never into the (installed) package folders."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"}
+    env["NS_PZ_CACHE_DIR"] = str(tmp_path / "cache")
+    out = subprocess.run(
+        [sys.executable, "-c", CACHE_SNIPPET],
+        capture_output=True, text=True, check=True, cwd=tmp_path, env=env,
+    )  # fmt: skip
+    result = json.loads(out.stdout)
+    assert result["package"] == []
+    assert any(name.startswith("_kernels.") for name in result["cache"]), result
+    assert (tmp_path / "cache" / "numba").is_dir()
+
+
+@needs_numba
+def test_cache_folder_order(monkeypatch, tmp_path):
+    """NS_PZ_CACHE_DIR, then numba's NUMBA_CACHE_DIR (numba places it), then the user cache."""
+    import numba
+    from ns_pz.agents.search import numba_cache
+
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "")
+    monkeypatch.delenv("NS_PZ_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    if sys.platform.startswith("linux"):
+        assert numba_cache.cache_dir() == tmp_path / "xdg" / "ns_pz" / "numba"
+    monkeypatch.setattr(numba.config, "CACHE_DIR", str(tmp_path / "numba-own"))
+    assert numba_cache.cache_dir() is None
+    monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path / "mine"))
+    assert numba_cache.cache_dir() == tmp_path / "mine" / "numba"
 
 
 @pytest.mark.parametrize("gamma", [0.0, 1.0])

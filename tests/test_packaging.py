@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from importlib import metadata
 from pathlib import Path
 
@@ -35,3 +37,55 @@ def test_console_script_is_declared():
     """The ns-pz command is an entry point of the distribution."""
     scripts = {ep.name for ep in metadata.entry_points(group="console_scripts")}
     assert "ns-pz" in scripts
+
+
+CHECKOUT = Path(__file__).resolve().parents[1]
+IMPORT_FROM_ROOT = (
+    "import ns_pz, ns_pz.envs.registry, ns_pz.agents.search, ns_pz.agents.search.mcts\n"
+    "import gymnasium\n"
+    "gymnasium.make('ns_pz/FrozenLake-v0')\n"
+    "print(ns_pz.__file__); print(ns_pz.envs.__file__); print(ns_pz.agents.search.__file__)\n"
+)
+WITHOUT_INSTALLED_NS_PZ = (
+    # The checkout alone: drop the finder of an editable install, if any, before importing.
+    "import sys\n"
+    "sys.meta_path[:] = [\n"
+    "    f for f in sys.meta_path if '__editable__' not in getattr(f, '__module__', '')\n"
+    "]\n"
+)
+
+
+@pytest.mark.parametrize("installed", [True, False], ids=["as-installed", "checkout-only"])
+def test_python_started_in_the_checkout_root_imports_the_whole_package(installed):
+    """The checkout's ns_pz/ shadows the installed one there; envs/ and agents/ come with it."""
+    if not (CHECKOUT / "ns_pz" / "__init__.py").is_file():
+        pytest.skip("the tests do not run from a source checkout")
+    code = IMPORT_FROM_ROOT if installed else WITHOUT_INSTALLED_NS_PZ + IMPORT_FROM_ROOT
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=CHECKOUT, check=False
+    )
+    assert out.returncode == 0, out.stderr
+    package, envs, search = (Path(line) for line in out.stdout.split())
+    assert package == CHECKOUT / "ns_pz" / "__init__.py"
+    assert envs == CHECKOUT / "envs" / "__init__.py"
+    assert search == CHECKOUT / "agents" / "search" / "__init__.py"
+
+
+def test_source_tree_finder_ignores_an_installed_layout_and_foreign_folders(tmp_path):
+    """Only a checkout (no envs/ inside ns_pz/, a pyproject mapping ns_pz.envs) is mapped."""
+    from ns_pz import _source_tree
+
+    installed = tmp_path / "site" / "ns_pz"
+    (installed / "envs").mkdir(parents=True)
+    (tmp_path / "site" / "envs").mkdir()
+    (tmp_path / "site" / "envs" / "__init__.py").write_text("")
+    assert _source_tree.checkout_mapping(installed) == {}  # an installed ns_pz has envs inside
+    other = tmp_path / "other"
+    (other / "ns_pz").mkdir(parents=True)
+    (other / "envs").mkdir()
+    (other / "envs" / "__init__.py").write_text("")
+    (other / "pyproject.toml").write_text('[project]\nname = "something-else"\n')
+    assert _source_tree.checkout_mapping(other / "ns_pz") == {}  # no ns_pz.envs mapping
+    mapping = _source_tree.checkout_mapping(CHECKOUT / "ns_pz")
+    assert mapping["ns_pz.envs"] == CHECKOUT / "envs"
+    assert mapping["ns_pz.agents"] == CHECKOUT / "agents"

@@ -78,3 +78,16 @@ def test_import_loads_no_torch_and_no_compiler(tmp_path):
     )
     out = run_python(code, tmp_path)
     assert out.stdout.strip() == "[]"
+
+
+def test_compat_bridge_is_made_after_plain_import_without_loading_compat(tmp_path):
+    """``import ns_pz`` registers ns_pz_compat/Bridge-v0 lazily: compat loads on make only."""
+    out = run_python(
+        "import sys, gymnasium, ns_pz\n"
+        "print('ns_pz.compat' in sys.modules)\n"
+        "env = gymnasium.make('ns_pz_compat/Bridge-v0')\n"
+        "env.reset(seed=0); env.step(0)\n"
+        "print(type(env.unwrapped).__module__, env.spec.max_episode_steps)",
+        tmp_path,
+    )
+    assert out.stdout.split() == ["False", "ns_pz.compat.envs.Bridge", "100"]

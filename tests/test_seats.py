@@ -326,7 +326,7 @@ def test_the_game_pays_nature_its_regret_at_the_end():
 
 
 def test_a_monitor_seat_paid_by_detection_scores_delay_and_false_alarms():
-    """ "detection": -1 per step a change stays undetected, -λ per false alarm (t = 0 included)."""
+    """monitor_reward="detection": -1 per undetected step, -λ per false alarm (t = 0 too)."""
     from ns_pz.nature import DiscreteScheduler, ScriptedNature, StepWiseUpdate
 
     nature = ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({3}), [0.5])})

@@ -19,10 +19,11 @@ modules reach this module's on-disk cache; data classes defined elsewhere (a scr
 a second, uncached copy of this module (:func:`ns_pz.agents.search.compiled.kernels_for`), and
 compile once per process.
 
-Numba caches the kernel under this source file: editing a registered step in another module does
-not invalidate it. After changing a compiled step, delete the ``__pycache__/*.nbi`` and ``*.nbc``
-files (or set ``NUMBA_CACHE_DIR`` to a fresh directory); the tests that compare the compiled and
-reference paths catch a stale cache.
+The machine code is cached in a user cache folder, never in the package
+(:mod:`ns_pz.agents.search.numba_cache`; ``NS_PZ_CACHE_DIR`` moves it). Numba caches the kernel
+under this source file: editing a registered step in another module does not invalidate it.
+After changing a compiled step, delete that folder (or point ``NS_PZ_CACHE_DIR`` at a fresh
+one); the tests that compare the compiled and reference paths catch a stale cache.
 """
 
 from __future__ import annotations
@@ -32,9 +33,12 @@ from typing import Any
 
 import numba
 import numpy as np
+from ns_pz.agents.search import numba_cache
 from ns_pz.agents.search.compiled import CartPoleData, TabularData
 from numba.core import types
 from numba.extending import overload
+
+numba_cache.install()  # before the first cache=True below: caches go to a user folder
 
 CACHE = __name__ == "ns_pz.agents.search._kernels"
 """Whether this copy caches machine code on disk (see :func:`compiled.kernels_for`)."""

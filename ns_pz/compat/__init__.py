@@ -77,10 +77,5 @@ Differences from NS-Gym (each one a defect there, or a choice ns_pz makes everyw
     overwrites a ``P`` you set with its default).
 """
 
-import gymnasium as _gymnasium
-
-BRIDGE_ID = "ns_pz_compat/Bridge-v0"
-"""NS-Gym's ``ns_gym/Bridge-v0``, in a namespace of its own so both packages can coexist."""
-
-if BRIDGE_ID not in _gymnasium.registry:
-    _gymnasium.register(id=BRIDGE_ID, entry_point="ns_pz.compat.envs:Bridge", max_episode_steps=100)
+# NS-Gym's ``ns_gym/Bridge-v0``; registered with Gymnasium by ``import ns_pz`` (envs/registry.py).
+from ns_pz.envs.registry import COMPAT_BRIDGE_ID as BRIDGE_ID  # noqa: F401

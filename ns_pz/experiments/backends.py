@@ -176,7 +176,7 @@ def _away_from_a_shadowing_checkout() -> Iterator[None]:
 
     Ray puts the driver's working directory first on its workers' ``sys.path``; run from a
     checkout while an installed ns_pz is the one in use, the workers would import the
-    checkout's uninstalled tree instead (which has no ``ns_pz.envs``).
+    checkout's tree instead of the code the driver runs.
     """
     here = Path.cwd()
     running = Path(ns_pz.__file__).resolve().parent

@@ -4,7 +4,9 @@ A table has one row per agent and one column per cell (setting × notification, 
 detailed notification, ``WON`` = without); each entry is the mean episode return ± its standard
 error (ddof=1) over the cell's episodes. Where the exact optimum of a cell is known (tabular
 envs: finite-horizon value iteration knowing the schedule), an ``optimum`` row gives it and a
-second table gives each agent's regret to it (optimum − mean).
+second table gives each agent's regret to it (optimum − mean). Every table and figure says what
+its notification labels mean, that ± is one standard error, and over how many episodes
+(:func:`legend`); the figures draw the optimum where it is known.
 
 Where a detector ran (the ``WD`` columns), a detection table gives, per agent and detector
 column, the mean detection delay, the false alarms per 1,000 steps and the missed changes, as
@@ -25,6 +27,14 @@ from ns_pz.monitor.scoring import DetectionSummary, detection_metrics
 
 #: ``optimum(setting, notification) -> value or None``.
 Optimum = Callable[[str, str], float | None]
+
+LEVEL_MEANINGS = {
+    "WN": "with notification (told what changed; plans with the current θ)",
+    "WON": "without notification (no flags; plans with θ_0)",
+    "basic": "changed flags only (plans with θ_0)",
+    "WD": "with a change detector (told what it detects, which may be late or wrong)",
+}
+"""What each notification label in a column name stands for."""
 
 
 @dataclass(frozen=True)
@@ -115,7 +125,8 @@ def table(
     if known:
         body.append(["optimum"] + [_number(optima.get(c), digits) for c in columns])
     render = _markdown if fmt == "markdown" else _latex
-    parts = [render(title, ["agent", *columns], body)]
+    note = legend(columns, summaries)
+    parts = [render(title, ["agent", *columns], body, note)]
     if known:
         regret = []
         for agent in agents:
@@ -127,7 +138,8 @@ def table(
                     f"{best - summary.mean:.{digits}f}" if ok else "n/a"  # type: ignore[union-attr,operator]
                 )
             regret.append([agent, *cells])
-        parts.append(render(f"{title}: regret to the optimum", ["agent", *columns], regret))
+        note = "Regret = optimum − mean episode return; a negative regret is sampling noise."
+        parts.append(render(f"{title}: regret to the optimum", ["agent", *columns], regret, note))
     detection = detection_summaries(rows)
     if detection:
         watched = [c for c in columns if any(k[1] == c for k in detection)]
@@ -136,7 +148,11 @@ def table(
             for agent in agents
         ]
         heading = f"{title}: detection (mean delay in steps, false alarms per 1,000 steps, missed)"
-        parts.append(render(heading, ["agent", *watched], body))
+        note = (
+            "Per cell: mean delay of the changes found / false alarms per 1,000 steps / "
+            "missed changes of all changes."
+        )
+        parts.append(render(heading, ["agent", *watched], body, note))
     return "\n\n".join(parts)
 
 
@@ -173,6 +189,26 @@ def _detection_entry(summary: DetectionSummary | None, digits: int) -> str:
     )
 
 
+def legend(columns: Sequence[str], summaries: Mapping[tuple[str, str], Summary]) -> str:
+    """One sentence for under a table or figure: the labels used, what ± is, and n.
+
+    Args:
+        columns: ``"setting notification"`` column names (as :func:`summarise` gives them).
+        summaries: The entries; ``n`` is their episode count (failed trials left out), given as
+            a range when it differs between entries.
+    """
+    labels = [label for label in LEVEL_MEANINGS if any(c.endswith(f" {label}") for c in columns)]
+    counts = sorted({s.episodes for s in summaries.values() if s.episodes})
+    if not counts:
+        n = "no finished episodes"
+    elif len(counts) == 1:
+        n = f"n = {counts[0]} episodes per cell"
+    else:
+        n = f"n = {counts[0]}–{counts[-1]} episodes per cell (failed trials left out)"
+    meanings = "; ".join(f"{label} = {LEVEL_MEANINGS[label]}" for label in labels)
+    return f"{meanings}. Mean episode return ± one standard error, {n}."
+
+
 def _entry(summary: Summary | None, digits: int) -> str:
     if summary is None:
         return "n/a"
@@ -188,23 +224,26 @@ def _number(value: float | None, digits: int) -> str:
     return "n/a" if value is None else f"{value:.{digits}f}"
 
 
-def _markdown(title: str, header: list[str], body: list[list[str]]) -> str:
+def _markdown(title: str, header: list[str], body: list[list[str]], note: str) -> str:
     lines = [f"**{title}**", "", "| " + " | ".join(header) + " |"]
     lines.append("|" + "---|" * len(header))
     lines += ["| " + " | ".join(row) + " |" for row in body]
+    lines += ["", note]
     return "\n".join(lines)
 
 
-def _latex(title: str, header: list[str], body: list[list[str]]) -> str:
+def _latex(title: str, header: list[str], body: list[list[str]], note: str) -> str:
     def cell(text: str) -> str:
         for char, escaped in (("_", r"\_"), ("%", r"\%"), ("&", r"\&"), ("#", r"\#")):
             text = text.replace(char, escaped)
-        return text.replace("±", r"$\pm$")
+        for char, math in (("±", r"\pm"), ("θ_0", r"\theta_0"), ("θ", r"\theta"), ("−", "-")):
+            text = text.replace(char, f"${math}$")
+        return text
 
     lines = [
         r"\begin{table}[t]",
         r"\centering",
-        rf"\caption{{{cell(title)}}}",
+        rf"\caption{{{cell(title)}. {cell(note)}}}",
         r"\begin{tabular}{l" + "r" * (len(header) - 1) + "}",
         r"\toprule",
         " & ".join(cell(h) for h in header) + r" \\",
@@ -220,10 +259,12 @@ def plot(
     title: str,
     out_dir: str | Path,
     spec: Mapping[str, Any] | None = None,
+    optimum: Optimum | None = None,
 ) -> list[Path]:
     """Two PNG figures: mean ± SE per agent and cell, and the distribution of returns.
 
-    Needs matplotlib (``pip install "ns_pz[plot]"``).
+    Both carry the :func:`legend` under the plot and, with ``optimum``, a dashed line at each
+    cell's exact optimum. Needs matplotlib (``pip install "ns_pz[plot]"``).
 
     Raises:
         RuntimeError: matplotlib is not installed.
@@ -236,6 +277,12 @@ def plot(
     except ImportError:
         raise RuntimeError('plots need matplotlib: pip install "ns_pz[plot]"') from None
     agents, columns, summaries = summarise(rows, spec)
+    optima = {}
+    for column in columns if optimum is not None else []:
+        value = optimum(*column.rsplit(" ", 1))  # type: ignore[misc]
+        if value is not None:
+            optima[column] = value
+    note = legend(columns, summaries)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     width = 0.8 / max(len(agents), 1)
@@ -249,11 +296,16 @@ def plot(
                 means.append(summary.mean)
                 errors.append(summary.error)
         ax.bar(xs, means, width, yerr=errors, capsize=3, label=agent)
+    label = "exact optimum"  # in the legend once
+    for j, column in enumerate(columns):
+        if column in optima:
+            ax.hlines(optima[column], j - 0.45, j + 0.45, "black", "--", label=label, gid="optimum")
+            label = "_nolegend_"
     ax.set_xticks(range(len(columns)), columns, rotation=20, ha="right")
-    ax.set_ylabel("episode return (mean ± SE)")
+    ax.set_ylabel("episode return (mean ± 1 SE)")
     ax.set_title(title)
     ax.legend(fontsize="small")
-    fig.tight_layout()
+    _footnote(fig, note)
     means_path = out / "means.png"
     fig.savefig(means_path, dpi=120)
     plt.close(fig)
@@ -273,12 +325,30 @@ def plot(
             for agent in agents
         ]
         ax.boxplot(data, tick_labels=agents, showmeans=True)
+        if column in optima:
+            ax.axhline(
+                optima[column], color="black", linestyle="--", label="exact optimum", gid="optimum"
+            )
         ax.set_title(column, fontsize="small")
         ax.tick_params(axis="x", labelrotation=45, labelsize="small")
     axes[0][0].set_ylabel("episode return")
+    if optima:
+        axes[0][0].legend(fontsize="small")
     fig.suptitle(f"{title}: return distributions")
-    fig.tight_layout()
+    _footnote(fig, note)
     returns_path = out / "returns.png"
     fig.savefig(returns_path, dpi=120)
     plt.close(fig)
     return [means_path, returns_path]
+
+
+def _footnote(fig: Any, text: str) -> None:
+    """Lay out ``fig`` with ``text`` wrapped under the axes."""
+    import textwrap
+
+    width = max(60, int(fig.get_figwidth() * 14))
+    wrapped = textwrap.fill(text, width)
+    lines = wrapped.count("\n") + 1
+    bottom = min(0.4, 0.04 + 0.045 * lines * 4 / fig.get_figheight())
+    fig.tight_layout(rect=(0, bottom, 1, 1))
+    fig.text(0.01, 0.01, wrapped, fontsize="x-small", va="bottom", ha="left")

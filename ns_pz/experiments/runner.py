@@ -2,16 +2,18 @@
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
 from ns_pz.experiments.backends import Backend
+from ns_pz.experiments.lock import locked
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
 from ns_pz.experiments.store import ResultStore
-from ns_pz.experiments.trials import expand, run_trial
+from ns_pz.experiments.trials import Trial, expand, run_trial
 
 
 @dataclass(frozen=True)
@@ -43,53 +45,78 @@ def run_spec(
         progress: Where to draw a progress line (``None``: no progress line).
         on_row: Called with each new row after it is stored.
 
+    A trial whose file cannot be read (cut short) counts as not done and runs again; the file is
+    named on ``progress``. ``out`` is locked for the run (:mod:`ns_pz.experiments.lock`).
+
     Raises:
         SpecError: ``out`` holds results of another spec, or of this one without ``resume``.
+        DirectoryLocked: Another process is running into ``out``.
     """
     store = ResultStore(out)
-    store.prepare(spec, resume)
-    trials = expand(spec)
-    finished = store.finished(spec.digest())
-    todo = [trial for trial in trials if trial.key not in finished]
-    bar = None
-    if progress is not None:
-        label = f"{spec.name} ({spec.size})"
-        bar = Progress(len(trials), len(trials) - len(todo), label, progress)
-    failed = 0
-    try:
-        for _, row in backend.run(spec, todo):
-            store.write(row)
-            ok = row["status"] == "ok"
-            failed += not ok
+    with locked(store.root):
+        store.prepare(spec, resume)
+        trials = expand(spec)
+        finished = store.finished(spec.digest())
+        todo = [trial for trial in trials if trial.key not in finished]
+        if progress is not None:
+            for path, reason in store.unreadable():
+                progress.write(f"{path} is unreadable ({reason}); its trial runs again\n")
+        bar = None
+        if progress is not None:
+            label = f"{spec.name} ({spec.size})"
+            bar = Progress(len(trials), len(trials) - len(todo), label, progress)
+        failed = 0
+        try:
+            for _, row in backend.run(spec, todo):
+                store.write(row)
+                ok = row["status"] == "ok"
+                failed += not ok
+                if bar is not None:
+                    bar.advance(ok)
+                if on_row is not None:
+                    on_row(row)
+        finally:
+            store.write_csv()
             if bar is not None:
-                bar.advance(ok)
-            if on_row is not None:
-                on_row(row)
-    finally:
-        store.write_csv()
-        if bar is not None:
-            bar.close()
+                bar.close()
     return RunSummary(store.root, len(trials), len(trials) - len(todo), len(todo), failed)
 
 
 @dataclass(frozen=True)
 class CellCost:
-    """Measured cost of one agent in one cell."""
+    """Measured cost of one agent in one cell.
+
+    ``seconds_per_trial`` is wall time, so it grows when other programs share the machine;
+    ``cpu_seconds_per_trial`` (this process's CPU time) is what an otherwise idle core takes.
+    """
 
     setting: str
     notification: str
     agent: str
     seconds_per_trial: float
     trials: int
+    cpu_seconds_per_trial: float
 
     @property
     def total_seconds(self) -> float:
-        """Projected time of all the cell's trials on one core."""
+        """Projected wall time of all the cell's trials on one core, loaded as now."""
         return self.seconds_per_trial * self.trials
 
+    @property
+    def total_cpu_seconds(self) -> float:
+        """Projected time of all the cell's trials on one otherwise idle core."""
+        return self.cpu_seconds_per_trial * self.trials
 
-def estimate(spec: ExperimentSpec, samples: int = 2) -> list[CellCost]:
+
+def estimate(
+    spec: ExperimentSpec, samples: int = 2, progress: TextIO | None = None
+) -> list[CellCost]:
     """Run the first ``samples`` seeds of every agent × cell here, serially, and project.
+
+    Args:
+        spec: The experiment.
+        samples: Seeds timed per agent and cell.
+        progress: Where to draw a progress line over the sampled trials (``None``: none).
 
     Raises:
         ValueError: ``samples`` < 1.
@@ -101,22 +128,40 @@ def estimate(spec: ExperimentSpec, samples: int = 2) -> list[CellCost]:
     for trial in expand(spec):
         key = (trial.cell.index, trial.cell.notification, trial.agent.label)
         groups.setdefault(key, []).append(trial)
+    bar = None
+    if progress is not None:
+        total = sum(min(samples, len(trials)) for trials in groups.values())
+        bar = Progress(total, 0, f"estimate {spec.name} ({spec.size})", progress)
     costs = []
-    for trials in groups.values():
-        times = []
-        for trial in trials[:samples]:
-            row = run_trial(spec, trial)
-            if row["status"] != "ok":
-                raise RuntimeError(f"trial {trial.key} failed: {row['error']}")
-            times.append(row["wall_time"])
-        first = trials[0]
-        costs.append(
-            CellCost(
-                first.cell.setting,
-                LEVEL_LABELS[first.cell.notification],
-                first.agent.label,
-                sum(times) / len(times),
-                len(trials),
-            )
-        )
+    try:
+        for trials in groups.values():
+            costs.append(_time_group(spec, trials[:samples], len(trials), bar))
+    finally:
+        if bar is not None:
+            bar.close()
     return costs
+
+
+def _time_group(
+    spec: ExperimentSpec, sampled: list[Trial], trials: int, bar: Progress | None
+) -> CellCost:
+    """Run ``sampled`` (one agent in one cell); their mean time projected to ``trials``."""
+    times, cpu_times = [], []
+    for trial in sampled:
+        cpu_start = time.process_time()
+        row = run_trial(spec, trial)
+        cpu_times.append(time.process_time() - cpu_start)
+        if row["status"] != "ok":
+            raise RuntimeError(f"trial {trial.key} failed: {row['error']}")
+        times.append(row["wall_time"])
+        if bar is not None:
+            bar.advance()
+    first = sampled[0]
+    return CellCost(
+        first.cell.setting,
+        LEVEL_LABELS[first.cell.notification],
+        first.agent.label,
+        sum(times) / len(times),
+        trials,
+        sum(cpu_times) / len(cpu_times),
+    )

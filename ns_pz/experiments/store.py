@@ -9,7 +9,11 @@ Layout::
 Every file is written to a temporary name and renamed, so a run killed at any moment (Ctrl-C,
 ``kill -9``, a crashed machine) leaves complete trial files and at worst a stray temporary one,
 never a half-written result. Resuming skips the trials that have a file with status ``ok`` and
-re-runs the rest, errors included.
+re-runs the rest, errors included. A trial file that cannot be read anyway (a disk that filled
+up, a copy cut short, a hand edit) is named and treated as not done: ``--resume`` re-runs its
+trial, and reports list it as skipped (:meth:`ResultStore.unreadable`).
+
+Only one run at a time writes into a directory (:mod:`ns_pz.experiments.lock`).
 """
 
 from __future__ import annotations
@@ -50,7 +54,7 @@ class ResultStore:
                     f"{self.root} holds trial results but no spec.json; use another --out"
                 )
             return
-        stored = json.loads(meta.read_text())
+        stored = _read_record(meta)
         if stored.get("digest") != spec.digest():
             raise SpecError(
                 f"{self.root} holds results of a different spec (digest "
@@ -81,7 +85,7 @@ class ResultStore:
         meta = self.root / "spec.json"
         if not meta.is_file():
             raise SpecError(f"{self.root} is not a results directory (no spec.json)")
-        return json.loads(meta.read_text())
+        return _read_record(meta)
 
     # -- trials ----------------------------------------------------------------------------
     def finished(self, digest: str) -> set[str]:
@@ -106,11 +110,27 @@ class ResultStore:
         _write_atomic(self.trials_dir / f"{row['trial']}.json", json.dumps(row, sort_keys=True))
 
     def rows(self) -> list[dict[str, Any]]:
-        """Every stored row, ordered by trial key."""
-        rows = []
+        """Every readable stored row, ordered by trial key (see :meth:`unreadable`)."""
+        return self._scan()[0]
+
+    def unreadable(self) -> list[tuple[Path, str]]:
+        """Trial files that are not a result row (cut short, not JSON), with the reason."""
+        return self._scan()[1]
+
+    def _scan(self) -> tuple[list[dict[str, Any]], list[tuple[Path, str]]]:
+        rows, bad = [], []
         for path in sorted(self.trials_dir.glob("*.json")):
-            rows.append(json.loads(path.read_text()))
-        return rows
+            try:
+                row = json.loads(path.read_text(encoding="utf-8"))
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+                bad.append((path, str(error)))
+                continue
+            missing = [key for key in _KEYS if not isinstance(row, dict) or key not in row]
+            if missing:
+                bad.append((path, f"not a result row (no {', '.join(missing)})"))
+            else:
+                rows.append(row)
+        return rows, bad
 
     def write_csv(self) -> Path:
         """Rebuild ``results.csv`` from the trial files; return its path."""
@@ -133,6 +153,23 @@ def _difference(old: dict[str, Any], new: dict[str, Any]) -> str:
     """The top-level fields that differ between two spec records."""
     fields = sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
     return f"{', '.join(fields)} differ" if fields else "same fields, another ns_pz version"
+
+
+_KEYS = ("trial", "status", "spec_hash")
+"""Fields every trial file has; :meth:`ResultStore.finished` and the reports rely on them."""
+
+
+def _read_record(meta: Path) -> dict[str, Any]:
+    """``spec.json``, or a :class:`SpecError` naming it."""
+    try:
+        record = json.loads(meta.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise SpecError(
+            f"{meta} is not valid JSON ({error}); use another --out directory"
+        ) from None
+    if not isinstance(record, dict) or "spec" not in record:
+        raise SpecError(f"{meta} is not a spec record (no 'spec'); use another --out directory")
+    return record
 
 
 def _write_atomic(path: Path, text: str) -> None:
