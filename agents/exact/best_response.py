@@ -111,9 +111,9 @@ def nature_best_response(
 
     Args:
         env: A tabular family, or an env / game / process built on one.
-        policy: The agent's policy in any form :func:`~ns_pz.agents.exact.game_stages.agent_strategy`
-            accepts (``[H, S]`` actions at ``none``/``basic``, ``[H, S, m]`` at ``detailed``,
-            or probabilities).
+        policy: The agent's policy in any form
+            :func:`~ns_pz.agents.exact.game_stages.agent_strategy` accepts (``[H, S]``
+            actions at ``none``/``basic``, ``[H, S, m]`` at ``detailed``, or probabilities).
         grid: Nature's action set.
         horizon: ``H``, the number of transitions.
         gamma: Discount in ``[0, 1]``.
@@ -249,7 +249,11 @@ def open_loop_best_response(
             to_go = np.einsum("ns,sn->n", mass, closed.values[t + 1][:, here, left])
             keep = np.argsort(gained + discount * to_go, kind="stable")[:max_nodes]
             here, left, mass, gained, paths = (
-                here[keep], left[keep], mass[keep], gained[keep], paths[keep]
+                here[keep],
+                left[keep],
+                mass[keep],
+                gained[keep],
+                paths[keep],
             )
     best = int(np.argmin(gained))
     indices = tuple(int(i) for i in paths[best])

@@ -125,7 +125,7 @@ def agent_strategy(
     base = (horizon, num_states)
     full = (horizon, num_states, m, levels, num_actions)
     if np.issubdtype(array.dtype, np.integer):
-        shapes = {base: 2, (*base, m): 3, (*base, m, levels): 4}
+        shapes = {base, (*base, m), (*base, m, levels)}
         if array.shape not in shapes:
             raise ValueError(
                 f"policy has integer shape {array.shape}; allowed: {sorted(shapes)} "
@@ -135,10 +135,10 @@ def agent_strategy(
             raise ValueError(f"policy holds actions outside 0..{num_actions - 1}")
         array = np.eye(num_actions)[array]
     elif np.issubdtype(array.dtype, np.floating):
-        shapes = {(*base, num_actions), (*base, m, num_actions), full}
-        if array.shape not in shapes:
+        float_shapes = {(*base, num_actions), (*base, m, num_actions), full}
+        if array.shape not in float_shapes:
             raise ValueError(
-                f"policy has float shape {array.shape}; allowed: {sorted(shapes)} "
+                f"policy has float shape {array.shape}; allowed: {sorted(float_shapes)} "
                 "(probabilities with a trailing action axis)"
             )
         if np.any(array < -1e-9) or not np.allclose(array.sum(axis=-1), 1.0, atol=1e-6):
@@ -150,9 +150,7 @@ def agent_strategy(
     return np.broadcast_to(array, full)
 
 
-def nature_strategy(
-    nature: Any, horizon: int, num_states: int, grid: NatureGrid
-) -> np.ndarray:
+def nature_strategy(nature: Any, horizon: int, num_states: int, grid: NatureGrid) -> np.ndarray:
     """Nature's policy as ``[H, S, m, levels, m]`` probabilities (a read-only broadcast).
 
     Accepted: integer grid indices of shape ``[H, m, levels]`` (blind to the state) or

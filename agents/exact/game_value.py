@@ -65,9 +65,7 @@ class GameSolution:
     stages: int
 
 
-def solve_game(
-    env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0
-) -> GameSolution:
+def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) -> GameSolution:
     """Value and equilibrium of the game at ``detailed`` (module docstring).
 
     Args:

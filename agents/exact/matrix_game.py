@@ -46,7 +46,9 @@ class MatrixGameSolutions:
     linear_programs: int
 
 
-def solve_matrix_games(payoffs: np.ndarray, allowed: np.ndarray | None = None) -> MatrixGameSolutions:
+def solve_matrix_games(
+    payoffs: np.ndarray, allowed: np.ndarray | None = None
+) -> MatrixGameSolutions:
     """Solve ``N`` zero-sum games ``payoffs[g]`` (``[N, A, J]``) over their allowed columns.
 
     Args:

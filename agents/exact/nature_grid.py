@@ -64,7 +64,9 @@ class NatureGrid:
             raise ValueError(f"start={self.start!r} is outside 0..{m - 1}")
         for name in ("allowed", "costs"):
             if np.shape(getattr(self, name)) != (m, m):
-                raise ValueError(f"{name} has shape {np.shape(getattr(self, name))}; need ({m}, {m})")
+                raise ValueError(
+                    f"{name} has shape {np.shape(getattr(self, name))}; need ({m}, {m})"
+                )
         if not np.all(np.diag(self.allowed)) or np.any(np.diag(self.costs) != 0):
             raise ValueError("staying put must be allowed and free (diagonal of allowed/costs)")
         if np.any(self.costs < 0):
@@ -171,12 +173,19 @@ def nature_grid(
     budget = constraints.budget
     if budget is None:
         return NatureGrid(
-            tuple(points), points.index(start), allowed, np.zeros(allowed.shape, np.int64), 1, math.inf
+            tuple(points),
+            points.index(start),
+            allowed,
+            np.zeros(allowed.shape, np.int64),
+            1,
+            math.inf,
         )
     if budget_unit is None:
         positive = totals[allowed & (totals > TOLERANCE)]
         budget_unit = float(positive.min()) if positive.size else max(float(budget), 1.0)
-    if not (isinstance(budget_unit, (int, float)) and math.isfinite(budget_unit) and budget_unit > 0):
+    if not (
+        isinstance(budget_unit, (int, float)) and math.isfinite(budget_unit) and budget_unit > 0
+    ):
         raise ValueError(f"budget_unit={budget_unit!r} must be a finite number > 0")
     units = totals / budget_unit
     costs = np.rint(units).astype(np.int64)
