@@ -50,8 +50,9 @@ class GameSolution:
 
     Attributes:
         values: ``[H + 1, S, m, levels]`` stage values; ``values[H]`` is zero.
-        agent: ``[H, S, m, levels, A]`` the agent's equilibrium strategy (probabilities).
-        nature: ``[H, S, m, levels, m]`` nature's equilibrium strategy (probabilities).
+        agent: ``[H, S, m, levels, A]`` the agent's equilibrium strategy (float32
+            probabilities).
+        nature: ``[H, S, m, levels, m]`` nature's equilibrium strategy (float32).
         value: The game's value at reset (start states, θ_{-1}, full budget).
         linear_programs: Stages that needed an LP (the others had a pure saddle point).
         stages: All stages solved.
@@ -84,8 +85,9 @@ def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) 
     m, levels = grid.size, grid.budget_levels
     next_budget = grid.next_budget()
     values = np.zeros((horizon + 1, num_states, m, levels))
-    agent = np.empty((horizon, num_states, m, levels, num_actions))
-    nature = np.empty((horizon, num_states, m, levels, m))
+    # float32: the strategies are the big arrays (CliffWalking, H = 200: ~110 MB for nature's)
+    agent = np.empty((horizon, num_states, m, levels, num_actions), np.float32)
+    nature = np.empty((horizon, num_states, m, levels, m), np.float32)
     linear_programs = 0
     for t in range(horizon - 1, -1, -1):
         payoffs, allowed = stage_payoffs(tables, values[t + 1], next_budget, gamma)
