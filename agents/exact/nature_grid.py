@@ -41,7 +41,8 @@ class NatureGrid:
         thetas: The grid points, distinct, all of one Params class.
         start: Index of θ_{-1}, the θ in force before nature's first move.
         allowed: ``[m, m]`` bool; ``allowed[i, j]``: nature may move from θ^i to θ^j in one step.
-        costs: ``[m, m]`` int64; budget units a move uses (0 on the diagonal).
+        costs: ``[m, m]`` int64; budget units a move uses. Every point needs an allowed move
+            of cost 0.
         budget_levels: Number of values the budget left can take (``0 .. budget_levels - 1``
             units); 1 when there is no budget (moves are then free).
         budget_unit: Size of one budget unit (``inf`` when there is no budget).
@@ -67,10 +68,14 @@ class NatureGrid:
                 raise ValueError(
                     f"{name} has shape {np.shape(getattr(self, name))}; need ({m}, {m})"
                 )
-        if not np.all(np.diag(self.allowed)) or np.any(np.diag(self.costs) != 0):
-            raise ValueError("staying put must be allowed and free (diagonal of allowed/costs)")
         if np.any(self.costs < 0):
             raise ValueError("costs must be >= 0")
+        stuck = ~np.any(self.allowed & (self.costs == 0), axis=1)
+        if np.any(stuck):
+            raise ValueError(
+                f"θ^{int(np.argmax(stuck))} has no move costing nothing; nature needs a move "
+                "even with no budget left (staying put, in the game)"
+            )
         if isinstance(self.budget_levels, bool) or not isinstance(self.budget_levels, int):
             raise TypeError(f"budget_levels={self.budget_levels!r} must be an int >= 1")
         if self.budget_levels < 1:
