@@ -11,18 +11,24 @@ from ns_pz.agents.exact import (
     NatureGrid,
     agent_best_response,
     equal_split,
+    exploitability,
     nature_best_response,
     nature_grid,
     open_loop_best_response,
     oracle_solution,
     play_values,
     policy_values,
+    robust_slip_solution,
+    search_policy_on_grid,
     slip_line_grid,
+    snapshot_policy,
+    snapshot_policy_on_grid,
     solve_game,
     solve_matrix_games,
     stale_policy,
     start_value,
 )
+from ns_pz.agents.search.rats import rats
 from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
 
 from ns_pz.nature import NatureConstraints
@@ -385,3 +391,71 @@ def test_a_nature_with_one_schedule_gives_the_oracle_value():
     assert nature_best_response(family, stale, grid, horizon).value == pytest.approx(
         start_value(family, policy_values(family, schedule, stale)), abs=1e-12
     )
+
+
+def test_exploitability_of_the_equilibrium_is_zero_and_of_planners_positive():
+    """The equilibrium strategy is not exploitable; the paper's planners are, by >= 0."""
+    family = FrozenLakeFamily()
+    grid = slip_line_grid(theta(0.9), 0.1, NatureConstraints(lipschitz=0.1, budget=0.3))
+    horizon = 12
+    game = solve_game(family, grid, horizon)
+    assert exploitability(family, game.agent, grid, horizon, game=game).exploitability == (
+        pytest.approx(0.0, abs=1e-6)
+    )
+    for policy in (
+        stale_policy(family, theta(0.9), horizon),
+        snapshot_policy_on_grid(family, grid, horizon),
+        robust_slip_solution(family, theta(0.9), horizon, lipschitz=0.1, budget=0.3).policy,
+    ):
+        result = exploitability(family, policy, grid, horizon, game=game)
+        assert result.exploitability >= -1e-9
+        assert result.game_value == game.value
+    with pytest.raises(ValueError, match="game was solved for horizon 12"):
+        exploitability(family, game.agent[:5], grid, 5, game=game)
+
+
+def test_snapshot_policy_on_grid_plays_as_snapshot_replanning():
+    """Against any schedule, the grid policy at θ_{t-1} is what snapshot_policy plays."""
+    family = FrozenLakeFamily()
+    grid = slip_line_grid(theta(0.7), 0.1, NatureConstraints(lipschitz=0.2))
+    horizon = 8
+    on_grid = snapshot_policy_on_grid(family, grid, horizon)
+    path = [grid.start - 1, grid.start - 3, grid.start - 3, grid.start - 1] * 2
+    seen = [grid.start, *path[:-1]]
+    replayed = on_grid[np.arange(horizon), :, seen]
+    schedule = grid.schedule_of(path)
+    # snapshot_policy's convention: θ_0 known before transition 0, so prepend the start
+    expected = snapshot_policy(family, [grid.thetas[grid.start], *schedule])[1:]
+    np.testing.assert_array_equal(replayed, expected)
+
+
+def test_search_policy_on_grid_records_the_planner_decisions():
+    """A deterministic planner: one-hot at its decision per (state, θ), same for every t."""
+    family = FrozenLakeFamily()
+    grid = slip_line_grid(theta(0.8), 0.2, NatureConstraints(lipschitz=0.2), low=0.4)
+    search = functools.partial(rats, depth=2, terminal_value="fl_hack")
+    rng = np.random.default_rng(0)
+    policy = search_policy_on_grid(family, grid, 5, search, rng)
+    assert policy.shape == (5, 16, grid.size, 4)
+    for i, point in enumerate(grid.thetas):
+        model = family.planning_model(point, 4, rng)
+        assert policy[3, 4, i].argmax() == search(model, 4, rng).action
+    blind = search_policy_on_grid(family, grid, 5, search, rng, level="none")
+    np.testing.assert_array_equal(blind, policy[:, :, grid.start])
+    with pytest.raises(ValueError, match="level='full' is not a notification level"):
+        search_policy_on_grid(family, grid, 5, search, rng, level="full")
+    with pytest.raises(ValueError, match="samples=0 must be an int >= 1"):
+        search_policy_on_grid(family, grid, 5, search, rng, samples=0)
+
+
+def test_policy_and_nature_shapes_are_checked():
+    """Wrong shapes and actions are caller errors naming what is allowed."""
+    family, grid = small_game()
+    with pytest.raises(ValueError, match=r"policy has integer shape \(3, 5, 2\)"):
+        nature_best_response(family, np.zeros((3, 5, 2), np.int64), grid, 3)
+    with pytest.raises(ValueError, match="policy holds actions outside 0..2"):
+        nature_best_response(family, np.full((3, 5), 7), grid, 3)
+    with pytest.raises(ValueError, match="nature puts weight on a move the grid bars"):
+        agent_best_response(family, np.zeros((3, grid.size, grid.budget_levels), np.int64), grid, 3)
+    with pytest.raises(TypeError, match="is not tabular"):
+        solve_game(object(), grid, 3)

@@ -16,6 +16,12 @@ from ns_pz.agents.exact.best_response import (
     open_loop_best_response,
     play_values,
 )
+from ns_pz.agents.exact.exploitability import (
+    Exploitability,
+    exploitability,
+    search_policy_on_grid,
+    snapshot_policy_on_grid,
+)
 from ns_pz.agents.exact.game_value import GameSolution, solve_game
 from ns_pz.agents.exact.induction import (
     FiniteHorizonSolution,
@@ -44,6 +50,7 @@ from ns_pz.agents.exact.schedule import theta_trajectory
 
 __all__ = [
     "AgentResponse",
+    "Exploitability",
     "FiniteHorizonSolution",
     "GameSolution",
     "MatrixGameSolutions",
@@ -55,6 +62,7 @@ __all__ = [
     "backward_induction",
     "equal_split",
     "evaluate_policy",
+    "exploitability",
     "nature_best_response",
     "nature_grid",
     "open_loop_best_response",
@@ -65,9 +73,11 @@ __all__ = [
     "policy_values",
     "robust_backward_induction",
     "robust_slip_solution",
+    "search_policy_on_grid",
     "slip_intervals",
     "slip_line_grid",
     "snapshot_policy",
+    "snapshot_policy_on_grid",
     "solve_game",
     "solve_matrix_games",
     "stale_policy",
