@@ -10,6 +10,7 @@ import pytest
 from ns_pz.agents.exact import (
     NatureGrid,
     agent_best_response,
+    blind_value_bounds,
     equal_split,
     exploitability,
     nature_best_response,
@@ -459,3 +460,30 @@ def test_policy_and_nature_shapes_are_checked():
         agent_best_response(family, np.zeros((3, grid.size, grid.budget_levels), np.int64), grid, 3)
     with pytest.raises(TypeError, match="is not tabular"):
         solve_game(object(), grid, 3)
+
+
+def test_blind_value_bounds_are_ordered_and_tight_on_one_schedule():
+    """Lower <= upper <= detailed; a nature with one schedule leaves nothing to notify."""
+    family = FrozenLakeFamily()
+    grid = slip_line_grid(theta(0.9), 0.1, NatureConstraints(lipschitz=0.1, budget=0.3))
+    horizon = 10
+    stale = stale_policy(family, theta(0.9), horizon)
+    bounds = blind_value_bounds(family, grid, horizon, {"stale": stale})
+    assert bounds.lower <= bounds.upper + 1e-9 <= bounds.detailed + 2e-9
+    assert bounds.lower >= bounds.candidate_values["stale"]
+    low, high = bounds.notification_value
+    assert 0.0 <= low + 1e-9 and low <= high + 1e-9
+    points = (theta(1.0), theta(0.8), theta(0.6))
+    allowed = np.array([[0, 1, 0], [0, 0, 1], [0, 0, 1]], bool)
+    chain = NatureGrid(points, 0, allowed, np.zeros((3, 3), np.int64), 1, np.inf)
+    bounds = blind_value_bounds(family, chain, 4, {"stale": stale[:4]})
+    oracle = start_value(family, oracle_solution(family, [points[1], *[points[2]] * 3]).values)
+    assert bounds.lower == pytest.approx(oracle, abs=1e-12)
+    assert bounds.upper == pytest.approx(oracle, abs=1e-12)
+    with pytest.raises(ValueError, match="a blind policy is"):
+        blind_value_bounds(family, grid, horizon, {"snapshot": snapshot_like_grid(grid)})
+
+
+def snapshot_like_grid(grid):
+    """A policy that reads θ_{t-1}: not blind."""
+    return np.zeros((10, 16, grid.size), np.int64)

@@ -30,6 +30,11 @@ from ns_pz.agents.exact.induction import (
 )
 from ns_pz.agents.exact.matrix_game import MatrixGameSolutions, solve_matrix_games
 from ns_pz.agents.exact.nature_grid import NatureGrid, nature_grid, slip_line_grid
+from ns_pz.agents.exact.notification_value import (
+    BlindValueBounds,
+    averaged_equilibrium,
+    blind_value_bounds,
+)
 from ns_pz.agents.exact.references import (
     PolicyAgent,
     oracle_agent,
@@ -50,6 +55,7 @@ from ns_pz.agents.exact.schedule import theta_trajectory
 
 __all__ = [
     "AgentResponse",
+    "BlindValueBounds",
     "Exploitability",
     "FiniteHorizonSolution",
     "GameSolution",
@@ -59,7 +65,9 @@ __all__ = [
     "OpenLoopResponse",
     "PolicyAgent",
     "agent_best_response",
+    "averaged_equilibrium",
     "backward_induction",
+    "blind_value_bounds",
     "equal_split",
     "evaluate_policy",
     "exploitability",
