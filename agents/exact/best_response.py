@@ -36,7 +36,7 @@ from ns_pz.agents.exact.game_stages import (
     family_of,
     grid_tables,
     nature_strategy,
-    stage_payoffs,
+    stage_induction,
     start_value,
 )
 from ns_pz.agents.exact.nature_grid import NatureGrid
@@ -131,18 +131,17 @@ def nature_best_response(
     tables = grid_tables(env, grid)
     num_states, num_actions, _ = tables[0].probs.shape
     strategy = agent_strategy(policy, horizon, num_states, num_actions, grid)
-    next_budget = grid.next_budget()
-    values = np.zeros((horizon + 1, num_states, grid.size, grid.budget_levels))
     choice = np.empty((horizon, num_states, grid.size, grid.budget_levels), np.int64)
-    for t in range(horizon - 1, -1, -1):
-        payoffs, allowed = stage_payoffs(tables, values[t + 1], next_budget, gamma)
+
+    def minimise(t: int, payoffs: np.ndarray, allowed: np.ndarray) -> np.ndarray:
         # [i, b, j, s]: the agent's expected payoff if nature picks j
         expected = np.einsum("ibjsa,siba->ibjs", payoffs, strategy[t])
         expected = np.where(allowed[..., None], expected, np.inf)
         choice[t] = expected.argmin(axis=2).transpose(2, 0, 1)
-        values[t] = expected.min(axis=2).transpose(2, 0, 1)
-    family = family_of(env)
-    return NatureResponse(values, choice, start_value(family, values, grid))
+        return expected.min(axis=2).transpose(2, 0, 1)
+
+    values = stage_induction(tables, grid, horizon, gamma, minimise)
+    return NatureResponse(values, choice, start_value(family_of(env), values, grid))
 
 
 def agent_best_response(
@@ -162,14 +161,14 @@ def agent_best_response(
     tables = grid_tables(env, grid)
     num_states = tables[0].probs.shape[0]
     weights = nature_strategy(nature, horizon, num_states, grid)
-    next_budget = grid.next_budget()
-    values = np.zeros((horizon + 1, num_states, grid.size, grid.budget_levels))
     policy = np.empty((horizon, num_states, grid.size, grid.budget_levels), np.int64)
-    for t in range(horizon - 1, -1, -1):
-        payoffs, _ = stage_payoffs(tables, values[t + 1], next_budget, gamma)
+
+    def maximise(t: int, payoffs: np.ndarray, allowed: np.ndarray) -> np.ndarray:
         q = np.einsum("ibjsa,sibj->siba", payoffs, weights[t])
         policy[t] = q.argmax(axis=3)
-        values[t] = q.max(axis=3)
+        return q.max(axis=3)
+
+    values = stage_induction(tables, grid, horizon, gamma, maximise)
     return AgentResponse(values, policy, start_value(family_of(env), values, grid))
 
 
@@ -182,12 +181,11 @@ def play_values(
     num_states, num_actions, _ = tables[0].probs.shape
     strategy = agent_strategy(policy, horizon, num_states, num_actions, grid)
     weights = nature_strategy(nature, horizon, num_states, grid)
-    next_budget = grid.next_budget()
-    values = np.zeros((horizon + 1, num_states, grid.size, grid.budget_levels))
-    for t in range(horizon - 1, -1, -1):
-        payoffs, _ = stage_payoffs(tables, values[t + 1], next_budget, gamma)
-        values[t] = np.einsum("ibjsa,sibj,siba->sib", payoffs, weights[t], strategy[t])
-    return values
+
+    def expect(t: int, payoffs: np.ndarray, allowed: np.ndarray) -> np.ndarray:
+        return np.einsum("ibjsa,sibj,siba->sib", payoffs, weights[t], strategy[t])
+
+    return stage_induction(tables, grid, horizon, gamma, expect)
 
 
 def open_loop_best_response(

@@ -24,7 +24,7 @@ Strategies are arrays of probabilities:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -106,6 +106,31 @@ def stage_payoffs(
     allowed = next_budget >= 0
     points = np.arange(num_points)[None, None, :]
     return after[points, np.maximum(next_budget, 0)], allowed
+
+
+StageRule = Callable[[int, np.ndarray, np.ndarray], np.ndarray]
+"""``rule(t, payoffs, allowed) -> values[t]`` (``[S, m, levels]``) from one step's stages."""
+
+
+def stage_induction(
+    tables: Sequence[TabularOutcomes],
+    grid: NatureGrid,
+    horizon: int,
+    gamma: float,
+    rule: StageRule,
+) -> np.ndarray:
+    """Backward induction over the stages: ``values[t] = rule(t, G_t, allowed)``, ``V_H = 0``.
+
+    Returns:
+        ``[H + 1, S, m, levels]`` values.
+    """
+    next_budget = grid.next_budget()
+    num_states = tables[0].probs.shape[0]
+    values = np.zeros((horizon + 1, num_states, grid.size, grid.budget_levels))
+    for t in range(horizon - 1, -1, -1):
+        payoffs, allowed = stage_payoffs(tables, values[t + 1], next_budget, gamma)
+        values[t] = rule(t, payoffs, allowed)
+    return values
 
 
 def agent_strategy(

@@ -37,7 +37,7 @@ from ns_pz.agents.exact.game_stages import (
     check_game,
     family_of,
     grid_tables,
-    stage_payoffs,
+    stage_induction,
     start_value,
 )
 from ns_pz.agents.exact.matrix_game import solve_matrix_games
@@ -83,21 +83,22 @@ def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) 
     tables = grid_tables(env, grid)
     num_states, num_actions, _ = tables[0].probs.shape
     m, levels = grid.size, grid.budget_levels
-    next_budget = grid.next_budget()
-    values = np.zeros((horizon + 1, num_states, m, levels))
     # float32: the strategies are the big arrays (CliffWalking, H = 200: ~110 MB for nature's)
     agent = np.empty((horizon, num_states, m, levels, num_actions), np.float32)
     nature = np.empty((horizon, num_states, m, levels, m), np.float32)
     linear_programs = 0
-    for t in range(horizon - 1, -1, -1):
-        payoffs, allowed = stage_payoffs(tables, values[t + 1], next_budget, gamma)
+
+    def play_stage(t: int, payoffs: np.ndarray, allowed: np.ndarray) -> np.ndarray:
+        nonlocal linear_programs
         games = payoffs.transpose(3, 0, 1, 4, 2).reshape(-1, num_actions, m)  # [(s,i,b), a, j]
         moves = np.broadcast_to(allowed, (num_states, m, levels, m)).reshape(-1, m)
         solved = solve_matrix_games(games, moves)
-        values[t] = solved.values.reshape(num_states, m, levels)
         agent[t] = solved.rows.reshape(num_states, m, levels, num_actions)
         nature[t] = solved.columns.reshape(num_states, m, levels, m)
         linear_programs += solved.linear_programs
+        return solved.values.reshape(num_states, m, levels)
+
+    values = stage_induction(tables, grid, horizon, gamma, play_stage)
     return GameSolution(
         values=values,
         agent=agent,
