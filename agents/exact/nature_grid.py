@@ -80,8 +80,10 @@ class NatureGrid:
             raise TypeError(f"budget_levels={self.budget_levels!r} must be an int >= 1")
         if self.budget_levels < 1:
             raise ValueError(f"budget_levels={self.budget_levels!r} must be >= 1")
-        for name in ("allowed", "costs"):
-            getattr(self, name).flags.writeable = False
+        for name, dtype in (("allowed", np.bool_), ("costs", np.int64)):
+            array = np.array(getattr(self, name), dtype=dtype)  # a copy: the caller's stays
+            array.flags.writeable = False
+            object.__setattr__(self, name, array)
 
     @property
     def size(self) -> int:
