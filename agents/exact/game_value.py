@@ -1,0 +1,109 @@
+"""The value and equilibrium of the NS-MDP game at ``detailed``, by Shapley's backward induction.
+
+Each step nature picks θ_t on its grid and the agent picks ``a_t`` simultaneously: the agent
+sees ``s_t``, θ_{t-1} and (through the change sizes it is told) nature's budget left, not θ_t
+(DESIGN.md, "The game as a game"). Nature sees ``t``, θ_{t-1}, its budget and ``s_t``. The game
+is zero-sum (nature's payoff is minus the agent's return), finite and of perfect recall with
+observed stages, so its value is computed stage by stage::
+
+    V_t[s, i, b] = val( G_t[i, b, ·, s, ·] )        V_H = 0
+
+where ``val`` is the value of the matrix game with payoffs ``G_t[i, b, j, s, a]`` over the
+agent's actions ``a`` and nature's allowed moves ``j``
+(:mod:`ns_pz.agents.exact.game_stages`, :mod:`ns_pz.agents.exact.matrix_game`). The per-stage
+optimal strategies form a subgame-perfect equilibrium: neither side gains by deviating, which
+the tests check by best responses.
+
+**How this relates to the robust solution** (:mod:`ns_pz.agents.exact.robust`). The rectangular
+robust induction lets nature pick its worst θ separately for every (state, action, step), after
+seeing the agent's action, out of the whole interval reachable by step ``t`` (ignoring
+θ_{t-1} and the budget already spent). That nature is strictly stronger than the game's (one θ
+per step, chosen before the action, constrained by its own path), so the robust value is a lower
+bound on the game value and the robust policy's value against the game's best-responding nature
+(:func:`~ns_pz.agents.exact.exploitability.exploitability`) lies between the two.
+
+At ``none`` / ``basic`` the agent does not see θ_{t-1}: its information sets join stages with
+different ``i`` and ``b``, the stage decomposition fails, and this value is an upper bound
+(more information cannot hurt the maximiser); see :mod:`ns_pz.agents.exact.openspiel_game`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from ns_pz.agents.exact.game_stages import (
+    check_game,
+    family_of,
+    grid_tables,
+    stage_induction,
+    start_value,
+)
+from ns_pz.agents.exact.matrix_game import solve_matrix_games
+from ns_pz.agents.exact.nature_grid import NatureGrid
+
+
+@dataclass(frozen=True)
+class GameSolution:
+    """Value and equilibrium strategies of the game on a grid.
+
+    Attributes:
+        values: ``[H + 1, S, m, levels]`` stage values; ``values[H]`` is zero.
+        agent: ``[H, S, m, levels, A]`` the agent's equilibrium strategy (float32
+            probabilities).
+        nature: ``[H, S, m, levels, m]`` nature's equilibrium strategy (float32).
+        value: The game's value at reset (start states, θ_{-1}, full budget).
+        linear_programs: Stages that needed an LP (the others had a pure saddle point).
+        stages: All stages solved.
+    """
+
+    values: np.ndarray
+    agent: np.ndarray
+    nature: np.ndarray
+    value: float
+    linear_programs: int
+    stages: int
+
+
+def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) -> GameSolution:
+    """Value and equilibrium of the game at ``detailed`` (module docstring).
+
+    Args:
+        env: A tabular family, or an env / game / process built on one.
+        grid: Nature's action set.
+        horizon: ``H``, the number of transitions.
+        gamma: Discount in ``[0, 1]``.
+
+    Raises:
+        TypeError / ValueError: The env is not tabular, the grid is of another θ class, or
+            ``horizon``/``gamma`` are invalid.
+    """
+    horizon, gamma = check_game(horizon, gamma)
+    tables = grid_tables(env, grid)
+    num_states, num_actions, _ = tables[0].probs.shape
+    m, levels = grid.size, grid.budget_levels
+    # float32: the strategies are the big arrays (CliffWalking, H = 200: ~110 MB for nature's)
+    agent = np.empty((horizon, num_states, m, levels, num_actions), np.float32)
+    nature = np.empty((horizon, num_states, m, levels, m), np.float32)
+    linear_programs = 0
+
+    def play_stage(t: int, payoffs: np.ndarray, allowed: np.ndarray) -> np.ndarray:
+        nonlocal linear_programs
+        games = payoffs.transpose(3, 0, 1, 4, 2).reshape(-1, num_actions, m)  # [(s,i,b), a, j]
+        moves = np.broadcast_to(allowed, (num_states, m, levels, m)).reshape(-1, m)
+        solved = solve_matrix_games(games, moves)
+        agent[t] = solved.rows.reshape(num_states, m, levels, num_actions)
+        nature[t] = solved.columns.reshape(num_states, m, levels, m)
+        linear_programs += solved.linear_programs
+        return solved.values.reshape(num_states, m, levels)
+
+    values = stage_induction(tables, grid, horizon, gamma, play_stage)
+    return GameSolution(
+        values=values,
+        agent=agent,
+        nature=nature,
+        value=start_value(family_of(env), values, grid),
+        linear_programs=linear_programs,
+        stages=horizon * num_states * m * levels,
+    )
