@@ -127,9 +127,15 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
 def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench estimate``: time a few seeds of every cell, project the whole run."""
     from ns_pz.experiments import load_spec
-    from ns_pz.experiments.runner import estimate
+    from ns_pz.experiments.runner import estimate, train_artefacts
+    from ns_pz.experiments.trials import expand
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
+    training = 0.0
+    for experiment in specs:  # trained once, in the driver, before any trial
+        for trained in train_artefacts(experiment, expand(experiment), sys.stderr):
+            training += trained.seconds
+            out(f"training: {trained.label}: {trained.seconds:.1f} s")
     grand = 0.0
     out("| spec | setting | notification | agent | s/trial | trials | projected s (1 core) |")
     out("|---|---|---|---|---|---|---|")
@@ -140,10 +146,11 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
                 f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} | "
                 f"{cost.seconds_per_trial:.3f} | {cost.trials} | {cost.total_seconds:.0f} |"
             )
-    hours = grand / 3600 / args.workers
+    wall = training + grand / args.workers
     out(
-        f"\nprojected wall time on {args.workers} worker(s): {grand / args.workers:.0f} s "
-        f"({hours:.2f} h), from {args.samples} sampled seed(s) per cell"
+        f"\nprojected wall time on {args.workers} worker(s): {wall:.0f} s "
+        f"({wall / 3600:.2f} h), of which training {training:.0f} s "
+        f"({100 * training / max(wall, 1e-9):.0f}%), from {args.samples} sampled seed(s) per cell"
     )
     return EXIT_OK
 

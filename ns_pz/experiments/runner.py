@@ -7,11 +7,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
+from ns_pz.agents.catalog import agent_entry
+from ns_pz.agents.learning.artefacts import artefact_path, read_manifest
+from ns_pz.agents.learning.trained import Needed, prepare
 from ns_pz.experiments.backends import Backend
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
 from ns_pz.experiments.store import ResultStore
-from ns_pz.experiments.trials import expand, run_trial
+from ns_pz.experiments.trials import Trial, expand, run_trial
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,7 @@ def run_spec(
     trials = expand(spec)
     finished = store.finished(spec.digest())
     todo = [trial for trial in trials if trial.key not in finished]
+    train_artefacts(spec, todo, progress)
     bar = None
     if progress is not None:
         label = f"{spec.name} ({spec.size})"
@@ -73,6 +77,54 @@ def run_spec(
 
 
 @dataclass(frozen=True)
+class TrainingCost:
+    """One trained network a spec needs, and what it cost.
+
+    Attributes:
+        label: What was trained (learner, family, θ_0, budget).
+        seconds: Training time (measured now, or recorded in the cached artefact).
+        trained_now: Whether this run trained it (False: it was in the cache).
+    """
+
+    label: str
+    seconds: float
+    trained_now: bool
+
+
+def train_artefacts(
+    spec: ExperimentSpec, trials: list[Trial], progress: TextIO | None = None
+) -> list[TrainingCost]:
+    """Train, once each and here (before any worker starts), the networks ``trials`` need.
+
+    Every distinct artefact is trained under its key's file lock (see
+    :mod:`ns_pz.agents.learning.artefacts`), so concurrent runs sharing the cache train it once
+    too; the workers then only load it. Cached ones report the training time they recorded.
+    """
+    needs: list[Needed] = []
+    seen: set[str] = set()
+    for trial in trials:
+        entry = agent_entry(trial.agent.name)
+        if entry.artefacts is None or trial.agent.label in seen:
+            continue
+        seen.add(trial.agent.label)  # every cell of a spec shares θ_0 and the family
+        needs.extend(entry.artefacts(spec.make_env(trial.cell), trial.agent.hyper))
+    costs = []
+
+    def report(need: Needed, seconds: float, trained: bool) -> None:
+        if not trained:
+            info = read_manifest(artefact_path(need.request)).get("info", {})
+            seconds = float(info.get("seconds", 0.0))
+        costs.append(TrainingCost(need.label, seconds, trained))
+        if progress is not None and trained:
+            progress.write(f"trained {need.label} in {seconds:.1f} s\n")
+
+    if needs and progress is not None:
+        progress.write(f"{spec.name}: {len({n.request.key for n in needs})} trained network(s)\n")
+    prepare(needs, report=report)
+    return costs
+
+
+@dataclass(frozen=True)
 class CellCost:
     """Measured cost of one agent in one cell."""
 
@@ -91,12 +143,15 @@ class CellCost:
 def estimate(spec: ExperimentSpec, samples: int = 2) -> list[CellCost]:
     """Run the first ``samples`` seeds of every agent × cell here, serially, and project.
 
+    Networks the agents need are trained first (see :func:`train_artefacts` for their cost).
+
     Raises:
         ValueError: ``samples`` < 1.
         RuntimeError: A sampled trial failed (its error is in the message).
     """
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise ValueError(f"samples={samples!r} must be an integer >= 1")
+    train_artefacts(spec, expand(spec))  # trained once up front, not inside a timed trial
     groups: dict[tuple[int, str, str], list] = {}
     for trial in expand(spec):
         key = (trial.cell.index, trial.cell.notification, trial.agent.label)

@@ -1,0 +1,57 @@
+"""The learning agents as the catalog lists them: builder, hyper-parameters, artefacts needed.
+
+Builders load trained networks from the artefact cache (training them first if missing);
+``artefacts(env, hyper)`` names those networks without loading or training anything, so the
+runner can train each missing one once before the trials and spec checks can skip them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ns_pz.agents.learning.config import DDQNArgs
+from ns_pz.agents.learning.pamcts import build_pamcts, check_alpha
+from ns_pz.agents.learning.q_agent import build_ddqn
+from ns_pz.agents.learning.trained import Needed, ddqn_needed
+
+from ns_pz.views import NSGymEnv
+
+
+@dataclass(frozen=True)
+class LearningEntry:
+    """What :mod:`ns_pz.agents.catalog` needs to register one learning agent."""
+
+    name: str
+    build: Callable[..., Any]
+    description: str
+    signature_of: Callable[..., Any]
+    artefacts: Callable[[NSGymEnv, Mapping[str, Any]], list[Needed]]
+
+
+def _ddqn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
+    return [ddqn_needed(env, DDQNArgs(**hyper))]
+
+
+def _pamcts_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
+    check_alpha(hyper.get("alpha", 0.5))
+    return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
+
+
+ENTRIES = (
+    LearningEntry(
+        "ddqn",
+        build_ddqn,
+        "Double DQN trained on θ_0, greedy (no fine-tuning after a change)",
+        DDQNArgs,
+        _ddqn_artefacts,
+    ),
+    LearningEntry(
+        "pamcts",
+        build_pamcts,
+        "PA-MCTS: UCT in the handed model mixed at the root with the stale DDQN's Q (weight α)",
+        build_pamcts,
+        _pamcts_artefacts,
+    ),
+)
