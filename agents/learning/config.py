@@ -33,6 +33,8 @@ ALPHAZERO_PAPER = {
     "CartPoleFamily": ((128, 128), math.sqrt(2), 1.0, 1.0, 0.0),
 }
 
+VALUE_TARGETS = ("return", "root_q")
+
 
 def paper_entry(table: Mapping[str, Any], family: object) -> Any:
     """The row of ``table`` for ``family``'s class or its nearest listed base class.
@@ -171,14 +173,29 @@ class AlphaZeroArgs:
     """Full-batch gradient steps after every episode."""
     window: int = 2000
     """Most recent self-play samples trained on (NS-Gym: the last episode only)."""
+    value_target: str = "return"
+    """``"return"``: the discounted return from the move on (AlphaZero's z); ``"root_q"``: the
+    visit-weighted root Q of the move's search (NS-Gym)."""
+    checkpoint_window: int = 10
+    """Episodes of the moving-average return that picks the kept network (paper: 100)."""
     max_episode_steps: int = 100
     """Truncation of self-play episodes."""
     seed: int = 0
     """Training seed (episodes, search, sampling of moves, initialisation)."""
+    search_iterations: int | None = None
+    """PUCT simulations per decision when acting; None: ``iterations``. Not part of training,
+    so not of the artefact's key."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "hidden", _widths("hidden", self.hidden))
-        for name in ("episodes", "iterations", "epochs", "window", "max_episode_steps"):
+        if self.value_target not in VALUE_TARGETS:
+            raise ValueError(
+                f"value_target={self.value_target!r} is not allowed; allowed: {list(VALUE_TARGETS)}"
+            )
+        if self.search_iterations is not None:
+            _integer("search_iterations", self.search_iterations, 1)
+        for name in ("episodes", "iterations", "epochs", "window", "max_episode_steps",
+                     "checkpoint_window"):
             _integer(name, getattr(self, name), 1)
         _integer("depth", self.depth, 0)
         _integer("seed", self.seed, 0)

@@ -11,10 +11,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ns_pz.agents.learning.config import DDQNArgs
+from ns_pz.agents.learning.alphazero_agent import build_alphazero
+from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
 from ns_pz.agents.learning.pamcts import build_pamcts, check_alpha
 from ns_pz.agents.learning.q_agent import build_ddqn
-from ns_pz.agents.learning.trained import Needed, ddqn_needed
+from ns_pz.agents.learning.trained import Needed, alphazero_needed, ddqn_needed
 
 from ns_pz.views import NSGymEnv
 
@@ -39,6 +40,10 @@ def _pamcts_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
     return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
 
 
+def _alphazero_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
+    return [alphazero_needed(env, AlphaZeroArgs(**hyper))]
+
+
 ENTRIES = (
     LearningEntry(
         "ddqn",
@@ -53,5 +58,13 @@ ENTRIES = (
         "PA-MCTS: UCT in the handed model mixed at the root with the stale DDQN's Q (weight α)",
         build_pamcts,
         _pamcts_artefacts,
+    ),
+    LearningEntry(
+        "alphazero",
+        build_alphazero,
+        "AlphaZero: PUCT in the handed model guided by a policy/value net trained by self-play "
+        "on θ_0",
+        AlphaZeroArgs,
+        _alphazero_artefacts,
     ),
 )

@@ -46,12 +46,17 @@ def training_env(env: NSGymEnv, max_episode_steps: int) -> NSGymEnv:
     return NSGymEnv(env.family, params=env.base_params, max_episode_steps=max_episode_steps)
 
 
+#: Fields that only matter when acting, so they are not part of an artefact's key.
+DECISION_ONLY = frozenset({"search_iterations"})
+
+
 def _request(learner: str, env: NSGymEnv, args: Any) -> ArtefactRequest:
+    training_args = {k: v for k, v in asdict(args).items() if k not in DECISION_ONLY}
     return ArtefactRequest(
         learner=learner,
         family=repr(env.family),
         theta0=env.base_params.as_dict(),
-        args=asdict(args),
+        args=training_args,
         seed=args.seed,
         code_version=f"{__version__}/{learner}-{CODE_VERSIONS[learner]}",
     )
