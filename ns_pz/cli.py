@@ -8,6 +8,7 @@
     ns-pz bench plot DIR
     ns-pz bench estimate paper --size full    time a few seeds per cell, project the run
     ns-pz bench list                      shipped specs
+    ns-pz train paper [--size full]       train (or find cached) the networks the specs' agents use
     ns-pz envs                            registered envs, their θ, defaults and bounds
 
 Exit codes: 0 success; 1 some trials failed (their errors are in the results); 2 bad usage or a
@@ -155,6 +156,24 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     return EXIT_OK
 
 
+def train(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``train``: build every network the specs' learning agents need (cached ones are kept)."""
+    from ns_pz.agents.learning.artefacts import cache_dir
+    from ns_pz.experiments import load_spec
+    from ns_pz.experiments.runner import train_artefacts
+    from ns_pz.experiments.trials import expand
+
+    specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
+    total = 0.0
+    for experiment in specs:
+        for cost in train_artefacts(experiment, expand(experiment), sys.stderr):
+            state = "trained now" if cost.trained_now else "cached"
+            total += cost.seconds if cost.trained_now else 0.0
+            out(f"{experiment.name}: {cost.label}: {state} ({cost.seconds:.1f} s of training)")
+    out(f"\n{total:.0f} s of training in this call; artefacts in {cache_dir()}")
+    return EXIT_OK
+
+
 def bench_list(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench list``: the shipped specs with their titles and agents."""
     from ns_pz.experiments import load_spec, shipped_specs
@@ -208,6 +227,12 @@ def _parser() -> argparse.ArgumentParser:
     cost.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="to project for")
 
     actions.add_parser("list", help="list the shipped specs")
+
+    trainer = commands.add_parser(
+        "train", help="train the networks the specs' learning agents use (cached per θ_0)"
+    )
+    trainer.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
+    trainer.add_argument("--size", choices=("quick", "full"), default="quick")
     return parser
 
 
@@ -217,7 +242,7 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
 
     parser = _parser()
     args = parser.parse_args(argv)
-    action = "envs" if args.command == "envs" else args.action
+    action = args.command if args.command in ("envs", "train") else args.action
     if action in ("run", "estimate") and args.workers < 1:
         parser.error(f"--workers={args.workers} must be >= 1")
     if action == "estimate" and args.samples < 1:
@@ -233,6 +258,7 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
         "plot": bench_plot,
         "list": bench_list,
         "estimate": bench_estimate,
+        "train": train,
     }
     previous = signal.signal(signal.SIGTERM, _interrupt)  # a scheduler's stop, like Ctrl-C
     try:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import ns_pz
 import pytest
 from gymnasium import spaces
 from ns_pz.agents import evaluate
@@ -12,15 +11,26 @@ from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.learning.config import AlphaZeroArgs
 from ns_pz.agents.learning.puct import puct, puct_tree
 
+import ns_pz
+
 FROZEN_LAKE = {"slip": [0.7, 0.15, 0.15]}
 
 
 class ToyModel:
-    """Deterministic: 0 -a0-> 1 (r 1); 0 -a1-> 2 (r 0, end); 1 -a0-> 3 (r 0); 1 -a1-> 4 (r 3, end)."""
+    """Deterministic toy model.
+
+    0 -a0-> 1 (r 1); 0 -a1-> 2 (r 0, end); 1 -a0-> 3 (r 0); 1 -a1-> 4 (r 3, end).
+    """
 
     action_space = spaces.Discrete(2)
-    EDGES = {(0, 0): (1, 1.0, False), (0, 1): (2, 0.0, True), (1, 0): (3, 0.0, False),
-             (1, 1): (4, 3.0, True), (3, 0): (3, 0.0, False), (3, 1): (3, 0.0, False)}
+    EDGES = {
+        (0, 0): (1, 1.0, False),
+        (0, 1): (2, 0.0, True),
+        (1, 0): (3, 0.0, False),
+        (1, 1): (4, 3.0, True),
+        (3, 0): (3, 0.0, False),
+        (3, 1): (3, 0.0, False),
+    }
 
     def transition(self, state, action):
         """The one outcome of (state, action)."""
@@ -35,7 +45,7 @@ def _evaluate(state):
 
 
 def test_puct_matches_a_hand_worked_tree():
-    """c = 1, γ = 0.5, priors (0.6, 0.4), four simulations, worked out by hand.
+    """C = 1, γ = 0.5, priors (0.6, 0.4), four simulations, worked out by hand.
 
     1. root: scores (0.6, 0.4) -> a0; new node 1 (v = 2); G = 1 + 0.5*2 = 2.   Q0 = 2
     2. root: (2 + 0.6√2/2, 0 + 0.4√2) -> a0; node 1: (2.6, 2.4) -> a0; new node 3 (v = -4);
@@ -45,8 +55,16 @@ def test_puct_matches_a_hand_worked_tree():
     4. root: (1.5 + 0.3, 0.8) -> a0; node 1: (-2 + 0.6√3/2, 3 + 0.4√3/2) -> a1; node 4 is
        terminal: leaf 0; node 1: G = 3; root: G = 2.5.                             Q0 = 1.75
     """
-    tree = puct_tree(ToyModel(), 0, np.random.default_rng(0), evaluate=_evaluate,
-                     iterations=4, depth=5, c=1.0, gamma=0.5)
+    tree = puct_tree(
+        ToyModel(),
+        0,
+        np.random.default_rng(0),
+        evaluate=_evaluate,
+        iterations=4,
+        depth=5,
+        c=1.0,
+        gamma=0.5,
+    )
     np.testing.assert_array_equal(tree.visits, [4, 0])
     np.testing.assert_allclose(tree.q, [1.75, 0.0])
     assert (tree.num_nodes, tree.simulated_steps) == (4, 7)
@@ -56,16 +74,33 @@ def test_puct_matches_a_hand_worked_tree():
 
 def test_puct_depth_limit_takes_the_node_value():
     """With depth 0 a simulation stops at the first existing node and backs up its value."""
-    tree = puct_tree(ToyModel(), 0, np.random.default_rng(0), evaluate=_evaluate,
-                     iterations=3, depth=0, c=1.0, gamma=0.5)
+    tree = puct_tree(
+        ToyModel(),
+        0,
+        np.random.default_rng(0),
+        evaluate=_evaluate,
+        iterations=3,
+        depth=0,
+        c=1.0,
+        gamma=0.5,
+    )
     np.testing.assert_array_equal(tree.visits, [3, 0])
     np.testing.assert_allclose(tree.q, [2.0, 0.0])
     assert (tree.num_nodes, tree.simulated_steps) == (2, 3)
 
 
 def test_policy_target_temperature():
-    tree = puct_tree(ToyModel(), 0, np.random.default_rng(0), evaluate=_evaluate,
-                     iterations=4, depth=5, c=10.0, gamma=0.5)
+    """Policy target temperature."""
+    tree = puct_tree(
+        ToyModel(),
+        0,
+        np.random.default_rng(0),
+        evaluate=_evaluate,
+        iterations=4,
+        depth=5,
+        c=10.0,
+        gamma=0.5,
+    )
     visits = tree.visits.astype(float)
     np.testing.assert_allclose(tree.policy_target(1.0), visits / visits.sum())
     squared = visits**2 / (visits**2).sum()
@@ -73,8 +108,16 @@ def test_policy_target_temperature():
 
 
 def test_root_noise_comes_from_the_search_generator():
-    kwargs = dict(evaluate=_evaluate, iterations=20, depth=5, c=1.0, gamma=0.5,
-                  dirichlet_alpha=0.3, noise=0.75)
+    """Root noise comes from the search generator."""
+    kwargs = dict(
+        evaluate=_evaluate,
+        iterations=20,
+        depth=5,
+        c=1.0,
+        gamma=0.5,
+        dirichlet_alpha=0.3,
+        noise=0.75,
+    )
     first = puct(ToyModel(), 0, np.random.default_rng(1), **kwargs)
     again = puct(ToyModel(), 0, np.random.default_rng(1), **kwargs)
     np.testing.assert_array_equal(first.visits, again.visits)
@@ -85,7 +128,7 @@ from ns_pz.agents.learning.alphazero import alphazero_loss  # noqa: E402
 
 
 def test_loss_is_cross_entropy_on_logits_plus_value_mse():
-    """d loss / d logits = softmax(logits) - π per row (/ batch): no double softmax."""
+    """D loss / d logits = softmax(logits) - π per row (/ batch): no double softmax."""
     logits = torch.tensor([[2.0, 0.0, -1.0], [0.5, 0.5, 3.0]], requires_grad=True)
     values = torch.tensor([0.5, -1.0], requires_grad=True)
     pi = torch.tensor([[0.2, 0.5, 0.3], [1.0, 0.0, 0.0]])
@@ -105,6 +148,7 @@ def _tmp_cache(tmp_path, monkeypatch):
 @pytest.mark.usefixtures("_tmp_cache")
 def test_alphazero_learns_frozen_lake_at_theta0():
     """40 self-play episodes (seconds): PUCT with the trained net far above random on θ_0."""
+
     def make():
         return ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE, max_episode_steps=100)
 
@@ -117,6 +161,7 @@ def test_alphazero_learns_frozen_lake_at_theta0():
 
 
 def test_bad_args_are_refused():
+    """Bad args are refused."""
     with pytest.raises(ValueError, match="value_target='mc' is not allowed"):
         AlphaZeroArgs(value_target="mc")
     with pytest.raises(ValueError, match="episodes=0 must be >= 1"):

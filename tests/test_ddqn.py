@@ -42,6 +42,7 @@ def test_double_target_differs_from_vanilla_exactly_where_the_argmaxes_differ():
 
 
 def test_training_is_reproducible_from_its_seed():
+    """Training is reproducible from its seed."""
     env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE)
     args = DDQNArgs(total_steps=1500, learning_starts=100).for_family(env.family)
     first, _ = train_ddqn(training_env(env, args.max_episode_steps), args, 3)
@@ -69,6 +70,7 @@ def test_ddqn_learns_frozen_lake_at_theta0():
 
 
 def test_ddqn_learns_cartpole_at_theta0():
+    """Ddqn learns cartpole at theta0."""
     env = ns_pz.make_gym("ns_pz/CartPole-v0", max_episode_steps=300)
     agent = agent_entry("ddqn").make(env, {"total_steps": 20_000})
     learned = _mean_return("ns_pz/CartPole-v0", {}, agent, range(10), max_episode_steps=300)
@@ -89,5 +91,6 @@ def test_ddqn_learns_cartpole_at_theta0():
     ],
 )
 def test_bad_args_are_refused(field, value, match):
+    """Bad args are refused."""
     with pytest.raises((TypeError, ValueError), match=match):
         DDQNArgs(**{field: value})

@@ -41,11 +41,13 @@ WEIGHTS = {"q.0.weight": np.arange(6.0).reshape(2, 3), "q.0.bias": np.ones(2)}
     ],
 )
 def test_every_part_of_the_request_changes_the_key(change):
+    """Every part of the request changes the key."""
     assert _request(**change).key != _request().key
     assert _request().key == _request().key
 
 
 def test_round_trip_and_manifest(tmp_path):
+    """Round trip and manifest."""
     request = _request()
     where = artefacts.save(request, WEIGHTS, {"seconds": 1.5}, root=tmp_path)
     assert where == tmp_path / "ddqn" / request.key
@@ -58,6 +60,7 @@ def test_round_trip_and_manifest(tmp_path):
 
 
 def test_cache_dir_follows_the_environment_variable(tmp_path, monkeypatch):
+    """Cache dir follows the environment variable."""
     monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path))
     assert artefacts.cache_dir() == tmp_path / "artefacts"
     monkeypatch.delenv("NS_PZ_CACHE_DIR")
@@ -66,6 +69,7 @@ def test_cache_dir_follows_the_environment_variable(tmp_path, monkeypatch):
 
 
 def test_corrupt_weights_are_refused(tmp_path):
+    """Corrupt weights are refused."""
     request = _request()
     where = artefacts.save(request, WEIGHTS, root=tmp_path)
     payload = bytearray((where / "weights.npz").read_bytes())
@@ -79,6 +83,7 @@ def test_corrupt_weights_are_refused(tmp_path):
 
 
 def test_foreign_artefacts_are_refused(tmp_path):
+    """Foreign artefacts are refused."""
     request = _request()
     where = artefacts.save(request, WEIGHTS, root=tmp_path)
     manifest = json.loads((where / "manifest.json").read_text())
@@ -95,11 +100,14 @@ def test_foreign_artefacts_are_refused(tmp_path):
 
 
 def test_missing_artefact_names_the_fix(tmp_path):
+    """Missing artefact names the fix."""
     with pytest.raises(ArtefactError, match="ns-pz train"):
         artefacts.load(_request(), root=tmp_path)
 
 
 def test_a_failed_training_leaves_nothing_under_the_key(tmp_path):
+    """A failed training leaves nothing under the key."""
+
     def boom():
         raise RuntimeError("training crashed")
 
@@ -111,6 +119,7 @@ def test_a_failed_training_leaves_nothing_under_the_key(tmp_path):
 
 
 def test_load_or_train_trains_once_then_loads(tmp_path):
+    """Load or train trains once then loads."""
     calls = []
 
     def train():
@@ -150,6 +159,7 @@ def test_concurrent_processes_train_a_key_once(tmp_path):
 
 
 def test_learning_agents_import_no_torch():
+    """Learning agents import no torch."""
     code = (
         "import sys, ns_pz, ns_pz.agents, ns_pz.agents.catalog, ns_pz.agents.learning.entries,"
         " ns_pz.agents.learning.pamcts, ns_pz.experiments.runner;"

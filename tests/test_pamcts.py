@@ -6,11 +6,12 @@ import copy
 import math
 
 import numpy as np
-import ns_pz
 import pytest
 from ns_pz.agents.learning.pamcts import PAMCTS, mix, pamcts
 from ns_pz.agents.learning.q_agent import DDQNAgent, QNetwork
 from ns_pz.agents.search.mcts import uct
+
+import ns_pz
 
 FROZEN_LAKE = {"slip": [0.7, 0.15, 0.15]}
 
@@ -52,8 +53,13 @@ def test_alpha_zero_is_mcts(seed, normalise):
         expected = uct(model, model.get_state(), np.random.default_rng(seed), **common)
         model = twin
         got = pamcts(
-            model, model.get_state(), np.random.default_rng(seed),
-            q_fn=lambda s, q=q: q(s), alpha=0.0, normalise=normalise, **common,
+            model,
+            model.get_state(),
+            np.random.default_rng(seed),
+            q_fn=lambda s, q=q: q(s),
+            alpha=0.0,
+            normalise=normalise,
+            **common,
         )
         assert got.action == expected.action
         np.testing.assert_array_equal(got.visits, expected.visits)
@@ -84,9 +90,12 @@ def test_mix_weights_normalised_values():
     assert np.isfinite(flat).all() and int(np.argmax(flat)) == 3  # the Q decides, no NaN
 
 
-@pytest.mark.parametrize(("alpha", "match"), [(1.5, r"alpha=1.5 must lie in \[0, 1\]"),
-                                              ("x", "alpha='x' must be a real number")])
+@pytest.mark.parametrize(
+    ("alpha", "match"),
+    [(1.5, r"alpha=1.5 must lie in \[0, 1\]"), ("x", "alpha='x' must be a real number")],
+)
 def test_bad_alpha_is_refused(alpha, match):
+    """Bad alpha is refused."""
     q = _random_q_network(ns_pz.make_gym("ns_pz/FrozenLake-v0").family.observation_space, 0)
     with pytest.raises((TypeError, ValueError), match=match):
         PAMCTS(q, alpha=alpha)

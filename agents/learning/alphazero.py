@@ -9,8 +9,9 @@ for each episode: play it with PUCT on the planning model (θ_0) under the curre
 recording ``(features, visit distribution at temperature T, value target)`` per move and
 sampling each move from that distribution; the value target is the discounted return from that
 move to the episode's end (AlphaZero's z; ``value_target="root_q"``: NS-Gym's visit-weighted
-root Q, which learns nothing from sparse rewards until the search itself finds them); then ``epochs`` full-batch Adam steps on the
-window with ``loss = MSE(v, V_target) + CE(π_target, softmax(logits))`` (weight decay in Adam);
+root Q, which learns nothing from sparse rewards until the search itself finds them); then
+``epochs`` full-batch Adam steps on the window with
+``loss = MSE(v, V_target) + CE(π_target, softmax(logits))`` (weight decay in Adam);
 ``T <- max(decay * T, T_min)``. The weights kept are those after the episode with the best
 moving-average return over the last ``checkpoint_window`` episodes.
 """
@@ -25,11 +26,11 @@ from typing import Any
 import numpy as np
 import torch
 import torch.nn.functional as F
-
 from ns_pz.agents.learning.config import AlphaZeroArgs
 from ns_pz.agents.learning.features import feature_size, features
 from ns_pz.agents.learning.networks import PolicyValueNet, seeded_torch
 from ns_pz.agents.learning.puct import PolicyValueFunction, model_evaluation, puct_tree
+
 from ns_pz.views import NSGymEnv
 
 
@@ -65,7 +66,7 @@ def train_alphazero(
     if args.hidden is None or args.c is None or args.gamma is None:
         raise ValueError(f"args={args!r} must have hidden, c and gamma filled in (for_family)")
     space = env.family.observation_space
-    num_actions = int(env.action_space.n)
+    num_actions = int(env.action_space.n)  # type: ignore[attr-defined]  # Discrete
     rng = np.random.default_rng(seed)
     start = time.perf_counter()
     with seeded_torch(seed):
@@ -96,6 +97,7 @@ def train_alphazero(
                     gamma=args.gamma,
                     dirichlet_alpha=args.dirichlet_alpha or 1.0,
                     noise=args.noise or 0.0,
+                    normalise_q=args.normalise_q,
                 )
                 policy = tree.policy_target(temperature)
                 played.append((features(space, observation["state"]), policy, tree.value_target()))
@@ -127,7 +129,10 @@ def train_alphazero(
 
             # keep the network of the best moving-average return
             average = float(np.mean(returns[-args.checkpoint_window :]))
-            if len(returns) >= min(args.checkpoint_window, args.episodes) and average > best_average:
+            if (
+                len(returns) >= min(args.checkpoint_window, args.episodes)
+                and average > best_average
+            ):
                 best_average, kept = average, network.export()
 
     info = {

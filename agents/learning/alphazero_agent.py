@@ -10,11 +10,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-
 from ns_pz.agents.learning.config import AlphaZeroArgs
 from ns_pz.agents.learning.puct import PolicyValueFunction, model_evaluation, puct
 from ns_pz.agents.learning.trained import alphazero_needed, obtain
 from ns_pz.agents.search.types import SearchAgent, SearchResult
+
 from ns_pz.views import NSGymEnv
 
 
@@ -29,6 +29,7 @@ class AlphaZeroAgent(SearchAgent):
         gamma: Discount.
         dirichlet_alpha: Root-noise concentration.
         noise: Root-noise weight ε (the paper's CliffWalking: 0.75).
+        normalise_q: Min-max scale Q in the selection (see :func:`puct_tree`).
     """
 
     def __init__(
@@ -41,11 +42,17 @@ class AlphaZeroAgent(SearchAgent):
         gamma: float,
         dirichlet_alpha: float,
         noise: float,
+        normalise_q: bool,
     ) -> None:
         self.function = function
         self.settings = dict(
-            iterations=iterations, depth=depth, c=c, gamma=gamma,
-            dirichlet_alpha=dirichlet_alpha, noise=noise,
+            iterations=iterations,
+            depth=depth,
+            c=c,
+            gamma=gamma,
+            dirichlet_alpha=dirichlet_alpha,
+            noise=noise,
+            normalise_q=normalise_q,
         )
         super().__init__(self._search, name=f"AlphaZero(m={iterations})")
 
@@ -58,8 +65,11 @@ class AlphaZeroAgent(SearchAgent):
 
 
 def build_alphazero(env: NSGymEnv, **hyper: Any) -> AlphaZeroAgent:
-    """AlphaZero for ``env``; ``hyper`` are :class:`AlphaZeroArgs` fields (family defaults
-    filled in); the network is trained on ``env``'s θ_0 first if it is not cached."""
+    """AlphaZero for ``env``; ``hyper`` are :class:`AlphaZeroArgs` fields.
+
+    Family defaults are filled in; the network is trained on ``env``'s θ_0 first if it is not
+    cached.
+    """
     args = AlphaZeroArgs(**hyper).for_family(env.family)
     weights = obtain(alphazero_needed(env, args))
     function = PolicyValueFunction(weights, env.family.observation_space)
@@ -72,4 +82,5 @@ def build_alphazero(env: NSGymEnv, **hyper: Any) -> AlphaZeroAgent:
         gamma=args.gamma,
         dirichlet_alpha=args.dirichlet_alpha or 1.0,
         noise=args.noise or 0.0,
+        normalise_q=args.normalise_q,
     )

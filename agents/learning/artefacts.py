@@ -126,7 +126,8 @@ def save(
     final = artefact_path(request, root)
     final.parent.mkdir(parents=True, exist_ok=True)
     buffer = io.BytesIO()
-    np.savez(buffer, **{name: np.asarray(array) for name, array in weights.items()})
+    arrays: dict[str, Any] = {name: np.asarray(array) for name, array in weights.items()}
+    np.savez(buffer, **arrays)
     payload = buffer.getvalue()
     manifest = {
         "format": FORMAT,

@@ -61,7 +61,7 @@ def _integer(name: str, value: Any, low: int) -> None:
 def _real(name: str, value: Any, low: float, high: float = math.inf) -> None:
     if isinstance(value, bool) or not isinstance(value, Real):
         raise TypeError(f"{name}={value!r} must be a real number in [{low}, {high}]")
-    if not low <= value <= high or math.isnan(value):
+    if not low <= float(value) <= high or math.isnan(float(value)):
         raise ValueError(f"{name}={value!r} must lie in [{low}, {high}]")
 
 
@@ -117,8 +117,13 @@ class DDQNArgs:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "hidden", _widths("hidden", self.hidden))
-        for name in ("total_steps", "buffer_size", "batch_size", "train_every",
-                     "max_episode_steps"):
+        for name in (
+            "total_steps",
+            "buffer_size",
+            "batch_size",
+            "train_every",
+            "max_episode_steps",
+        ):
             _integer(name, getattr(self, name), 1)
         _integer("learning_starts", self.learning_starts, 0)
         _integer("seed", self.seed, 0)
@@ -159,6 +164,9 @@ class AlphaZeroArgs:
     """Root-noise concentration; None: the paper's (5 CliffWalking, else 1)."""
     noise: float | None = None
     """Root-noise weight ε; None: the paper's (0.75 CliffWalking, else 0)."""
+    normalise_q: bool = True
+    """Min-max scale Q in PUCT's selection by the values seen in the tree (MuZero), so ``c``
+    works at any reward scale; False: raw Q as NS-Gym."""
     temperature_start: float = 2.0
     """Visit-count temperature of the first episode."""
     temperature_decay: float = 0.95
@@ -194,8 +202,14 @@ class AlphaZeroArgs:
             )
         if self.search_iterations is not None:
             _integer("search_iterations", self.search_iterations, 1)
-        for name in ("episodes", "iterations", "epochs", "window", "max_episode_steps",
-                     "checkpoint_window"):
+        for name in (
+            "episodes",
+            "iterations",
+            "epochs",
+            "window",
+            "max_episode_steps",
+            "checkpoint_window",
+        ):
             _integer(name, getattr(self, name), 1)
         _integer("depth", self.depth, 0)
         _integer("seed", self.seed, 0)

@@ -1,4 +1,4 @@
-"""Double DQN (van Hasselt et al. 2016) trained on the stationary base environment θ_0 (imports torch).
+"""Double DQN (van Hasselt et al. 2016) trained on the stationary base env θ_0 (imports torch).
 
 ALGORITHMS.md §3. The training loop reads top to bottom like cleanrl's ``dqn.py``; the one
 thing that makes it *Double* DQN is :func:`double_dqn_target`: the online network chooses the
@@ -79,7 +79,7 @@ def train_ddqn(env: NSGymEnv, args: DDQNArgs, seed: int) -> tuple[dict[str, np.n
         training figures (seconds, episodes, mean return of the last 20 training episodes).
     """
     space = env.family.observation_space
-    num_actions = int(env.action_space.n)
+    num_actions = int(env.action_space.n)  # type: ignore[attr-defined]  # Discrete
     rng = np.random.default_rng(seed)
     start = time.perf_counter()
     with seeded_torch(seed):

@@ -70,13 +70,23 @@ def pamcts(
         q_fn: ``q_fn(state) -> [num_actions]`` stale action values of a model state.
         alpha: Weight of the stale Q in [0, 1].
         normalise: Min-max scale both vectors before mixing.
-        iterations, depth, c, gamma, backend: UCT's (:func:`ns_pz.agents.search.mcts.uct`).
+        iterations: UCT's m.
+        depth: UCT's rollout cap d.
+        c: UCT's exploration constant.
+        gamma: UCT's discount.
+        backend: UCT's backend (see :func:`ns_pz.agents.search.mcts.uct`).
 
     Returns:
         The action; ``values`` are the mixed scores, ``visits`` UCT's root visit counts.
     """
     tree = uct_tree(
-        model, root_state, rng, iterations=iterations, depth=depth, c=c, gamma=gamma,
+        model,
+        root_state,
+        rng,
+        iterations=iterations,
+        depth=depth,
+        c=c,
+        gamma=gamma,
         backend=backend,
     )
     visits = tree.visits[0].copy()
@@ -134,8 +144,15 @@ class PAMCTS(SearchAgent):
         check_uct_params(iterations, depth, c, gamma)
         self._observe: Callable[[Any], Any] | None = None
         search = functools.partial(
-            pamcts, q_fn=self._q_of_state, alpha=alpha, normalise=bool(normalise),
-            iterations=iterations, depth=depth, c=c, gamma=gamma, backend=backend,
+            pamcts,
+            q_fn=self._q_of_state,
+            alpha=alpha,
+            normalise=bool(normalise),
+            iterations=iterations,
+            depth=depth,
+            c=c,
+            gamma=gamma,
+            backend=backend,
         )
         self.q_network = q_network
         self.alpha = alpha
@@ -166,8 +183,10 @@ def build_pamcts(
     backend: str = "auto",
     ddqn: Mapping[str, Any] | None = None,
 ) -> PAMCTS:
-    """PA-MCTS for ``env``; ``ddqn`` are the :class:`DDQNArgs` of its stale Q-network (the
-    same as the ``ddqn`` agent's, so both share one trained artefact).
+    """PA-MCTS for ``env`` (the UCT settings as :class:`PAMCTS`).
+
+    ``ddqn`` are the :class:`DDQNArgs` of its stale Q-network: the same as the ``ddqn`` agent's,
+    so both share one trained artefact.
     """
     q_network = ddqn_q_network(env, DDQNArgs(**dict(ddqn or {})))
     return PAMCTS(q_network, alpha, normalise, iterations, depth, c, gamma, backend)

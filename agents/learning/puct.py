@@ -7,6 +7,9 @@ with its settings bound), returning the same :class:`SearchResult`:
   (first-play value = the node's own value); at the root the priors are mixed with Dirichlet
   noise, ``(1 - ε) P + ε Dir(α)``;
 * selection: ``argmax_a Q(n, a) + c P(n, a) sqrt(1 + N(n)) / (1 + N(n, a))``, ties uniform;
+  with ``normalise_q`` (MuZero's rule) Q is first min-max scaled by the smallest and largest
+  value backed up in the tree so far, so ``c`` means the same whatever the reward scale
+  (CliffWalking's ±100 otherwise swamps the prior term and the root noise entirely);
 * a chance node (n, a) has one child per sampled next state; a simulation descends until it
   creates a node, reaches a terminal node or has descended ``depth`` levels, and takes the
   node's value as the leaf value;
@@ -30,7 +33,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
 from ns_pz.agents.learning.features import NumpyMLP, features
 from ns_pz.agents.search.mcts import num_actions_of, uniform_index
 from ns_pz.agents.search.types import SearchResult
@@ -107,8 +109,11 @@ class _Node:
         self.children: list[dict[Any, _Node]] = [{} for _ in range(num_actions)]
 
 
-def _select(node: _Node, c: float, rng: np.random.Generator) -> int:
-    scores = node.q + c * node.priors * math.sqrt(1 + node.n) / (1 + node.visits)
+def _select(node: _Node, c: float, rng: np.random.Generator, bounds: list[float] | None) -> int:
+    q = node.q
+    if bounds is not None and bounds[1] > bounds[0]:
+        q = (q - bounds[0]) / (bounds[1] - bounds[0])
+    scores = q + c * node.priors * math.sqrt(1 + node.n) / (1 + node.visits)
     best = np.flatnonzero(scores == scores.max())
     return int(best[0] if len(best) == 1 else best[uniform_index(rng, len(best))])
 
@@ -125,6 +130,7 @@ def puct_tree(
     gamma: float,
     dirichlet_alpha: float = 1.0,
     noise: float = 0.0,
+    normalise_q: bool = False,
 ) -> PUCTTree:
     """Run PUCT from ``root_state`` in ``model`` (``model.transition``; its state is untouched).
 
@@ -139,17 +145,21 @@ def puct_tree(
         gamma: Discount.
         dirichlet_alpha: Concentration of the root noise.
         noise: Weight ε of the root noise (0: none, and no draw from ``rng``).
+        normalise_q: Min-max scale Q in the selection by the values backed up so far.
     """
     num_actions = num_actions_of(model)
     priors, value = evaluate(root_state)
     if noise > 0.0:
-        priors = (1.0 - noise) * priors + noise * rng.dirichlet(np.full(num_actions, dirichlet_alpha))
+        priors = (1.0 - noise) * priors + noise * rng.dirichlet(
+            np.full(num_actions, dirichlet_alpha)
+        )
     root = _Node(root_state, False, priors, value, num_actions)
+    bounds = [np.inf, -np.inf] if normalise_q else None
     nodes, simulated = 1, 0
     for _ in range(iterations):
         node, path, level = root, [], 0
         while True:
-            action = _select(node, c, rng)
+            action = _select(node, c, rng, bounds)
             state, reward, done = model.transition(node.state, action)
             simulated += 1
             path.append((node, action, float(reward)))
@@ -175,6 +185,8 @@ def puct_tree(
             n.w[a] += leaf
             n.q[a] = n.w[a] / n.visits[a]
             n.n += 1
+            if bounds is not None:
+                bounds[0], bounds[1] = min(bounds[0], n.q[a]), max(bounds[1], n.q[a])
     return PUCTTree(root.visits.copy(), root.q.copy(), value, nodes, simulated)
 
 
@@ -190,11 +202,21 @@ def puct(
     gamma: float,
     dirichlet_alpha: float = 1.0,
     noise: float = 0.0,
+    normalise_q: bool = False,
 ) -> SearchResult:
     """One PUCT decision: the most visited root action (ties uniform); see :func:`puct_tree`."""
     tree = puct_tree(
-        model, root_state, rng, evaluate=evaluate, iterations=iterations, depth=depth, c=c,
-        gamma=gamma, dirichlet_alpha=dirichlet_alpha, noise=noise,
+        model,
+        root_state,
+        rng,
+        evaluate=evaluate,
+        iterations=iterations,
+        depth=depth,
+        c=c,
+        gamma=gamma,
+        dirichlet_alpha=dirichlet_alpha,
+        noise=noise,
+        normalise_q=normalise_q,
     )
     best = np.flatnonzero(tree.visits == tree.visits.max())
     action = int(best[0] if len(best) == 1 else best[uniform_index(rng, len(best))])

@@ -32,7 +32,8 @@ class QNetwork:
         size = len(features(observation_space, observation_space.sample()))
         if self.mlp.input_size != size:
             raise ValueError(
-                f"the Q-network takes {self.mlp.input_size} inputs; {observation_space} gives {size}"
+                f"the Q-network takes {self.mlp.input_size} inputs; "
+                f"{observation_space} gives {size}"
             )
 
     def __call__(self, observation: Any) -> np.ndarray:

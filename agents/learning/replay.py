@@ -9,8 +9,10 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Batch:
-    """A sample of transitions: ``features [batch, n]``, ``actions``, ``rewards``, ``next_features``,
-    ``terminated`` (1.0 where the transition ended the episode; truncation is not termination).
+    """A sample of transitions.
+
+    ``features`` and ``next_features`` are ``[batch, n]``; ``terminated`` is 1.0 where the
+    transition ended the episode (truncation is not termination).
     """
 
     features: np.ndarray

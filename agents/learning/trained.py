@@ -9,15 +9,19 @@ cache, training it first (under the key's lock) if it is missing. Training impor
 from __future__ import annotations
 
 import importlib
+import multiprocessing
 import time
 from collections.abc import Callable, Mapping
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from ns_pz.agents.learning.artefacts import ArtefactRequest, Trainer, load_or_train
+from gymnasium import spaces
+from ns_pz.agents.learning.artefacts import ArtefactRequest, exists, load_or_train
 from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
+from ns_pz.agents.learning.features import feature_size
 
 from ns_pz import __version__
 from ns_pz.views import NSGymEnv
@@ -28,17 +32,28 @@ CODE_VERSIONS = {"ddqn": "1", "alphazero": "1"}
 
 @dataclass(frozen=True)
 class Needed:
-    """An artefact an agent needs: its request and how to train it.
+    """An artefact an agent needs: its request and what training it takes.
+
+    Picklable, so a pool of processes can train several at once.
 
     Attributes:
         request: The artefact's identity (its key).
-        train: ``train() -> (weights, info)``; imports torch when called.
+        env: An environment of the family at the θ_0 to train on (its nature is not used).
+        args: The learner's settings, family defaults filled in.
         label: One line for progress messages.
     """
 
     request: ArtefactRequest
-    train: Trainer
+    env: NSGymEnv
+    args: DDQNArgs | AlphaZeroArgs
     label: str
+
+    def train(self) -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
+        """Train the network now (imports torch): ``(weights, info)``."""
+        env = training_env(self.env, self.args.max_episode_steps)
+        if isinstance(self.args, DDQNArgs):
+            return _torch_module("ddqn").train_ddqn(env, self.args, self.args.seed)
+        return _torch_module("alphazero").train_alphazero(env, self.args, self.args.seed)
 
 
 def training_env(env: NSGymEnv, max_episode_steps: int) -> NSGymEnv:
@@ -51,6 +66,9 @@ DECISION_ONLY = frozenset({"search_iterations"})
 
 
 def _request(learner: str, env: NSGymEnv, args: Any) -> ArtefactRequest:
+    if not isinstance(env.action_space, spaces.Discrete):
+        raise TypeError(f"{learner} needs a Discrete action space; {env!r} has {env.action_space}")
+    feature_size(env.family.observation_space)  # a TypeError for spaces a network cannot take
     training_args = {k: v for k, v in asdict(args).items() if k not in DECISION_ONLY}
     return ArtefactRequest(
         learner=learner,
@@ -75,25 +93,22 @@ def _torch_module(name: str) -> Any:
 def ddqn_needed(env: NSGymEnv, args: DDQNArgs) -> Needed:
     """The Double-DQN Q-network trained on ``env``'s θ_0 with ``args`` (widths resolved)."""
     args = args.for_family(env.family)
-
-    def train() -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
-        module = _torch_module("ddqn")
-        return module.train_ddqn(training_env(env, args.max_episode_steps), args, args.seed)
-
-    label = f"DDQN {env.family!r} θ0={env.base_params.as_dict()} {args.total_steps} steps"
-    return Needed(_request("ddqn", env, args), train, label)
+    label = f"DDQN {env.family!r} θ0={_theta_text(env)} {args.total_steps} steps"
+    return Needed(_request("ddqn", env, args), env, args, label)
 
 
 def alphazero_needed(env: NSGymEnv, args: AlphaZeroArgs) -> Needed:
     """The AlphaZero policy/value network trained by self-play on ``env``'s θ_0."""
     args = args.for_family(env.family)
+    label = f"AlphaZero {env.family!r} θ0={_theta_text(env)} {args.episodes} episodes"
+    return Needed(_request("alphazero", env, args), env, args, label)
 
-    def train() -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
-        module = _torch_module("alphazero")
-        return module.train_alphazero(training_env(env, args.max_episode_steps), args, args.seed)
 
-    label = f"AlphaZero {env.family!r} θ0={env.base_params.as_dict()} {args.episodes} episodes"
-    return Needed(_request("alphazero", env, args), train, label)
+def _theta_text(env: NSGymEnv) -> str:
+    def short(value: Any) -> Any:
+        return [round(v, 4) for v in value] if isinstance(value, tuple) else value
+
+    return str({name: short(value) for name, value in env.base_params.as_dict().items()})
 
 
 def obtain(needed: Needed, root: Path | None = None) -> dict[str, np.ndarray]:
@@ -106,6 +121,7 @@ def prepare(
     needs: list[Needed],
     root: Path | None = None,
     report: Callable[[Needed, float, bool], None] | None = None,
+    workers: int = 1,
 ) -> float:
     """Make sure every artefact in ``needs`` is cached (each distinct key trained once).
 
@@ -113,20 +129,27 @@ def prepare(
         needs: Artefacts, possibly repeated.
         root: The cache folder (default: the user cache).
         report: Called per distinct artefact with its seconds and whether it was trained.
+        workers: Processes training distinct artefacts at once (1: here, one after another).
 
     Returns:
-        Seconds spent training.
+        Seconds spent training, summed over artefacts (CPU time of one core each).
     """
-    seen: set[str] = set()
+    distinct = list({need.request.key: need for need in needs}.values())
+    if workers > 1 and sum(not exists(n.request, root) for n in distinct) > 1:
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(workers, len(distinct)), mp_context=context) as pool:
+            results = list(pool.map(_prepare_one, distinct, [root] * len(distinct)))
+    else:
+        results = [_prepare_one(need, root) for need in distinct]
     spent = 0.0
-    for need in needs:
-        if need.request.key in seen:
-            continue
-        seen.add(need.request.key)
-        start = time.perf_counter()
-        _, trained = load_or_train(need.request, need.train, root)
-        seconds = time.perf_counter() - start
+    for need, (seconds, trained) in zip(distinct, results, strict=True):
         spent += seconds if trained else 0.0
         if report is not None:
             report(need, seconds, trained)
     return spent
+
+
+def _prepare_one(need: Needed, root: Path | None) -> tuple[float, bool]:
+    start = time.perf_counter()
+    _, trained = load_or_train(need.request, need.train, root)
+    return time.perf_counter() - start, trained

@@ -54,7 +54,7 @@ def run_spec(
     trials = expand(spec)
     finished = store.finished(spec.digest())
     todo = [trial for trial in trials if trial.key not in finished]
-    train_artefacts(spec, todo, progress)
+    train_artefacts(spec, todo, progress, getattr(backend, "workers", 1))
     bar = None
     if progress is not None:
         label = f"{spec.name} ({spec.size})"
@@ -92,7 +92,7 @@ class TrainingCost:
 
 
 def train_artefacts(
-    spec: ExperimentSpec, trials: list[Trial], progress: TextIO | None = None
+    spec: ExperimentSpec, trials: list[Trial], progress: TextIO | None = None, workers: int = 1
 ) -> list[TrainingCost]:
     """Train, once each and here (before any worker starts), the networks ``trials`` need.
 
@@ -119,8 +119,9 @@ def train_artefacts(
             progress.write(f"trained {need.label} in {seconds:.1f} s\n")
 
     if needs and progress is not None:
-        progress.write(f"{spec.name}: {len({n.request.key for n in needs})} trained network(s)\n")
-    prepare(needs, report=report)
+        count = len({need.request.key for need in needs})
+        progress.write(f"{spec.name} needs {count} trained network(s)\n")
+    prepare(needs, report=report, workers=workers)
     return costs
 
 
