@@ -235,5 +235,6 @@ for _entry in learning.ENTRIES:
             _entry.description,
             signature_of=_entry.signature_of,
             artefacts=_entry.artefacts,
+            levels=_entry.levels or ALL_LEVELS,
         )
     )

@@ -14,7 +14,7 @@ from typing import Any
 from ns_pz.agents.learning.alphazero_agent import build_alphazero
 from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
 from ns_pz.agents.learning.pamcts import build_pamcts, check_alpha
-from ns_pz.agents.learning.q_agent import build_ddqn
+from ns_pz.agents.learning.q_agent import build_ddqn, build_ddqn_wn
 from ns_pz.agents.learning.trained import Needed, alphazero_needed, ddqn_needed
 
 from ns_pz.views import NSGymEnv
@@ -29,6 +29,7 @@ class LearningEntry:
     description: str
     signature_of: Callable[..., Any]
     artefacts: Callable[[NSGymEnv, Mapping[str, Any]], list[Needed]]
+    levels: frozenset[str] | None = None
 
 
 def _ddqn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
@@ -37,6 +38,14 @@ def _ddqn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
 
 def _pamcts_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
     check_alpha(hyper.get("alpha", 0.5))
+    return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
+
+
+def _ddqn_wn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
+    for name in ("model_steps", "gradient_steps"):
+        value = hyper.get(name, 0)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ValueError(f"{name}={value!r} must be an integer >= 0")
     return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
 
 
@@ -51,6 +60,15 @@ ENTRIES = (
         "Double DQN trained on θ_0, greedy (no fine-tuning after a change)",
         DDQNArgs,
         _ddqn_artefacts,
+    ),
+    LearningEntry(
+        "ddqn_wn",
+        build_ddqn_wn,
+        "DDQN with notification: fine-tuned in the handed model (fixed step budget) on every "
+        "notified change",
+        build_ddqn_wn,
+        _ddqn_wn_artefacts,
+        levels=frozenset({"detailed"}),
     ),
     LearningEntry(
         "pamcts",

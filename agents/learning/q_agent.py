@@ -10,7 +10,7 @@ from gymnasium import spaces
 from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import NumpyMLP, features
-from ns_pz.agents.learning.trained import ddqn_needed, obtain
+from ns_pz.agents.learning.trained import ddqn_needed, obtain, torch_module
 
 from ns_pz.views import NSGymEnv
 
@@ -66,3 +66,34 @@ def ddqn_q_network(env: NSGymEnv, args: DDQNArgs) -> QNetwork:
 def build_ddqn(env: NSGymEnv, **hyper: Any) -> DDQNAgent:
     """The DDQN agent for ``env``; ``hyper`` are :class:`DDQNArgs` fields."""
     return DDQNAgent(ddqn_q_network(env, DDQNArgs(**hyper)))
+
+
+def build_ddqn_wn(
+    env: NSGymEnv,
+    *,
+    model_steps: int = 200,
+    gradient_steps: int = 50,
+    epsilon: float = 0.1,
+    ddqn: Mapping[str, Any] | None = None,
+) -> Agent:
+    """DDQN-WN for ``env``: the ``ddqn`` agent's network, fine-tuned on notified changes.
+
+    Args:
+        env: The environment it will act in.
+        model_steps: Transitions simulated in the handed model per notified change.
+        gradient_steps: Double-DQN updates per notified change.
+        epsilon: Exploration of the simulated transitions.
+        ddqn: :class:`DDQNArgs` of the network (as the ``ddqn`` agent's, to share it); its
+            learning rate, γ, τ, batch size and weight decay also drive the fine-tuning.
+    """
+    args = DDQNArgs(**dict(ddqn or {})).for_family(env.family)
+    weights = obtain(ddqn_needed(env, args))
+    module = torch_module("ddqn_wn")  # fine-tuning needs torch when acting
+    return module.FineTunedDDQNAgent(
+        weights,
+        env.family.observation_space,
+        args,
+        model_steps=model_steps,
+        gradient_steps=gradient_steps,
+        epsilon=epsilon,
+    )

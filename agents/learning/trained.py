@@ -52,8 +52,8 @@ class Needed:
         """Train the network now (imports torch): ``(weights, info)``."""
         env = training_env(self.env, self.args.max_episode_steps)
         if isinstance(self.args, DDQNArgs):
-            return _torch_module("ddqn").train_ddqn(env, self.args, self.args.seed)
-        return _torch_module("alphazero").train_alphazero(env, self.args, self.args.seed)
+            return torch_module("ddqn").train_ddqn(env, self.args, self.args.seed)
+        return torch_module("alphazero").train_alphazero(env, self.args, self.args.seed)
 
 
 def training_env(env: NSGymEnv, max_episode_steps: int) -> NSGymEnv:
@@ -80,7 +80,12 @@ def _request(learner: str, env: NSGymEnv, args: Any) -> ArtefactRequest:
     )
 
 
-def _torch_module(name: str) -> Any:
+def torch_module(name: str) -> Any:
+    """``ns_pz.agents.learning.<name>``, a module that imports torch.
+
+    Raises:
+        ImportError: torch is not installed (the message says how to install it).
+    """
     try:
         return importlib.import_module(f"ns_pz.agents.learning.{name}")
     except ImportError as error:
