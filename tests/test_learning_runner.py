@@ -6,6 +6,7 @@ import io
 
 import pytest
 from ns_pz.agents.learning.artefacts import cache_dir
+
 from ns_pz.experiments import SpecError, load_spec, run_spec
 from ns_pz.experiments.backends import LocalBackend
 from ns_pz.experiments.runner import train_artefacts
@@ -43,7 +44,8 @@ params = { total_steps = 1500, learning_starts = 100 }
 [[agents]]
 name = "pamcts"
 label = "PA"
-params = { alpha = 0.5, iterations = 20, depth = 10, ddqn = { total_steps = 1500, learning_starts = 100 } }
+params = { alpha = 0.5, iterations = 20, depth = 10 }
+quick = { ddqn = { total_steps = 1500, learning_starts = 100 } }
 
 [[agents]]
 name = "alphazero"
