@@ -266,7 +266,7 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
     except BrokenPipeError:  # the reader went away (``ns-pz bench list | head``)
         sys.stderr.close()
         return EXIT_OK
-    except (SpecError, ValueError, OSError, RuntimeError) as error:
+    except (SpecError, ValueError, OSError, RuntimeError, ImportError) as error:
         print(f"ns-pz: error: {error}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
