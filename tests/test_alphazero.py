@@ -9,7 +9,7 @@ from ns_pz.agents import evaluate
 from ns_pz.agents.baselines import RandomAgent
 from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.learning.config import AlphaZeroArgs
-from ns_pz.agents.learning.puct import puct, puct_tree
+from ns_pz.agents.learning.puct import PUCTSettings, puct, puct_tree
 
 import ns_pz
 
@@ -44,6 +44,12 @@ def _evaluate(state):
     return np.array([0.6, 0.4]), VALUES[state]
 
 
+def _toy_tree(**settings):
+    """PUCT on the toy model with γ = 0.5 and ``settings``."""
+    puct_settings = PUCTSettings(gamma=0.5, **settings)
+    return puct_tree(ToyModel(), 0, np.random.default_rng(0), _evaluate, puct_settings)
+
+
 def test_puct_matches_a_hand_worked_tree():
     """C = 1, γ = 0.5, priors (0.6, 0.4), four simulations, worked out by hand.
 
@@ -55,16 +61,7 @@ def test_puct_matches_a_hand_worked_tree():
     4. root: (1.5 + 0.3, 0.8) -> a0; node 1: (-2 + 0.6√3/2, 3 + 0.4√3/2) -> a1; node 4 is
        terminal: leaf 0; node 1: G = 3; root: G = 2.5.                             Q0 = 1.75
     """
-    tree = puct_tree(
-        ToyModel(),
-        0,
-        np.random.default_rng(0),
-        evaluate=_evaluate,
-        iterations=4,
-        depth=5,
-        c=1.0,
-        gamma=0.5,
-    )
+    tree = _toy_tree(iterations=4, depth=5, c=1.0)
     np.testing.assert_array_equal(tree.visits, [4, 0])
     np.testing.assert_allclose(tree.q, [1.75, 0.0])
     assert (tree.num_nodes, tree.simulated_steps) == (4, 7)
@@ -72,18 +69,25 @@ def test_puct_matches_a_hand_worked_tree():
     np.testing.assert_allclose(tree.policy_target(1.0), [1.0, 0.0])
 
 
+def test_normalised_q_matches_a_hand_worked_tree():
+    """The same tree with Q min-max scaled by the values backed up so far (MuZero's rule).
+
+    1. no bounds yet: as before, a0, Q0 = 2; bounds [2, 2] (equal: no scaling).
+    2. a0, a0 as before; new node 3; node 1 Q = -2, root Q0 = 1; bounds [-2, 2].
+    3. root: scaled Q (0.75, 0.5): (0.75 + 0.6√3/3, 0.5 + 0.4√3) -> a1; terminal node 2;
+       root Q1 = 0.
+    4. root: (0.75 + 0.6·2/4, 0.5 + 0.4·2/2) -> a0; node 1: scaled (0, 1) -> a1: terminal
+       node 4, node 1 Q1 = 3; root G = 2.5, Q0 = 4.5 / 3 = 1.5.
+    """
+    tree = _toy_tree(iterations=4, depth=5, c=1.0, normalise_q=True)
+    np.testing.assert_array_equal(tree.visits, [3, 1])
+    np.testing.assert_allclose(tree.q, [1.5, 0.0])
+    assert (tree.num_nodes, tree.simulated_steps) == (5, 6)
+
+
 def test_puct_depth_limit_takes_the_node_value():
     """With depth 0 a simulation stops at the first existing node and backs up its value."""
-    tree = puct_tree(
-        ToyModel(),
-        0,
-        np.random.default_rng(0),
-        evaluate=_evaluate,
-        iterations=3,
-        depth=0,
-        c=1.0,
-        gamma=0.5,
-    )
+    tree = _toy_tree(iterations=3, depth=0, c=1.0)
     np.testing.assert_array_equal(tree.visits, [3, 0])
     np.testing.assert_allclose(tree.q, [2.0, 0.0])
     assert (tree.num_nodes, tree.simulated_steps) == (2, 3)
@@ -91,16 +95,7 @@ def test_puct_depth_limit_takes_the_node_value():
 
 def test_policy_target_temperature():
     """Policy target temperature."""
-    tree = puct_tree(
-        ToyModel(),
-        0,
-        np.random.default_rng(0),
-        evaluate=_evaluate,
-        iterations=4,
-        depth=5,
-        c=10.0,
-        gamma=0.5,
-    )
+    tree = _toy_tree(iterations=4, depth=5, c=10.0)
     visits = tree.visits.astype(float)
     np.testing.assert_allclose(tree.policy_target(1.0), visits / visits.sum())
     squared = visits**2 / (visits**2).sum()
@@ -109,17 +104,9 @@ def test_policy_target_temperature():
 
 def test_root_noise_comes_from_the_search_generator():
     """Root noise comes from the search generator."""
-    kwargs = dict(
-        evaluate=_evaluate,
-        iterations=20,
-        depth=5,
-        c=1.0,
-        gamma=0.5,
-        dirichlet_alpha=0.3,
-        noise=0.75,
-    )
-    first = puct(ToyModel(), 0, np.random.default_rng(1), **kwargs)
-    again = puct(ToyModel(), 0, np.random.default_rng(1), **kwargs)
+    settings = PUCTSettings(20, 5, 1.0, 0.5, dirichlet_alpha=0.3, noise=0.75)
+    first = puct(ToyModel(), 0, np.random.default_rng(1), _evaluate, settings)
+    again = puct(ToyModel(), 0, np.random.default_rng(1), _evaluate, settings)
     np.testing.assert_array_equal(first.visits, again.visits)
 
 

@@ -63,8 +63,9 @@ def train_alphazero(
     Returns:
         The kept network's weights (:class:`PolicyValueFunction` layout) and training figures.
     """
-    if args.hidden is None or args.c is None or args.gamma is None:
-        raise ValueError(f"args={args!r} must have hidden, c and gamma filled in (for_family)")
+    if args.hidden is None:
+        raise ValueError(f"args={args!r} must have hidden filled in (for_family)")
+    settings = args.puct_settings()
     space = env.family.observation_space
     num_actions = int(env.action_space.n)  # type: ignore[attr-defined]  # Discrete
     rng = np.random.default_rng(seed)
@@ -86,19 +87,8 @@ def train_alphazero(
             episode_return, done, rewards, played = 0.0, False, [], []
             while not done:
                 model = env.planning_model()
-                tree = puct_tree(
-                    model,
-                    model.get_state(),
-                    rng,
-                    evaluate=model_evaluation(function, model),
-                    iterations=args.iterations,
-                    depth=args.depth,
-                    c=args.c,
-                    gamma=args.gamma,
-                    dirichlet_alpha=args.dirichlet_alpha or 1.0,
-                    noise=args.noise or 0.0,
-                    normalise_q=args.normalise_q,
-                )
+                evaluate = model_evaluation(function, model)
+                tree = puct_tree(model, model.get_state(), rng, evaluate, settings)
                 policy = tree.policy_target(temperature)
                 played.append((features(space, observation["state"]), policy, tree.value_target()))
                 action = int(rng.choice(num_actions, p=policy))

@@ -7,11 +7,17 @@ search runs in (θ_0 without notification, the current θ with). Acting needs nu
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 from ns_pz.agents.learning.config import AlphaZeroArgs
-from ns_pz.agents.learning.puct import PolicyValueFunction, model_evaluation, puct
+from ns_pz.agents.learning.puct import (
+    PolicyValueFunction,
+    PUCTSettings,
+    model_evaluation,
+    puct,
+)
 from ns_pz.agents.learning.trained import alphazero_needed, obtain
 from ns_pz.agents.search.types import SearchAgent, SearchResult
 
@@ -23,42 +29,16 @@ class AlphaZeroAgent(SearchAgent):
 
     Args:
         function: The trained network.
-        iterations: Simulations per decision.
-        depth: Most levels a simulation descends.
-        c: Exploration constant.
-        gamma: Discount.
-        dirichlet_alpha: Root-noise concentration.
-        noise: Root-noise weight ε (the paper's CliffWalking: 0.75).
-        normalise_q: Min-max scale Q in the selection (see :func:`puct_tree`).
+        settings: PUCT's hyper-parameters at decision time.
     """
 
-    def __init__(
-        self,
-        function: PolicyValueFunction,
-        *,
-        iterations: int,
-        depth: int,
-        c: float,
-        gamma: float,
-        dirichlet_alpha: float,
-        noise: float,
-        normalise_q: bool,
-    ) -> None:
+    def __init__(self, function: PolicyValueFunction, settings: PUCTSettings) -> None:
         self.function = function
-        self.settings = dict(
-            iterations=iterations,
-            depth=depth,
-            c=c,
-            gamma=gamma,
-            dirichlet_alpha=dirichlet_alpha,
-            noise=noise,
-            normalise_q=normalise_q,
-        )
-        super().__init__(self._search, name=f"AlphaZero(m={iterations})")
+        self.settings = settings
+        super().__init__(self._search, name=f"AlphaZero(m={settings.iterations})")
 
     def _search(self, model: Any, root_state: Any, rng: np.random.Generator) -> SearchResult:
-        evaluate = model_evaluation(self.function, model)
-        return puct(model, root_state, rng, evaluate=evaluate, **self.settings)
+        return puct(model, root_state, rng, model_evaluation(self.function, model), self.settings)
 
     def __repr__(self) -> str:
         return f"AlphaZeroAgent({self.settings})"
@@ -73,14 +53,7 @@ def build_alphazero(env: NSGymEnv, **hyper: Any) -> AlphaZeroAgent:
     args = AlphaZeroArgs(**hyper).for_family(env.family)
     weights = obtain(alphazero_needed(env, args))
     function = PolicyValueFunction(weights, env.family.observation_space)
-    assert args.c is not None and args.gamma is not None  # filled in by for_family
-    return AlphaZeroAgent(
-        function,
-        iterations=args.search_iterations or args.iterations,
-        depth=args.depth,
-        c=args.c,
-        gamma=args.gamma,
-        dirichlet_alpha=args.dirichlet_alpha or 1.0,
-        noise=args.noise or 0.0,
-        normalise_q=args.normalise_q,
-    )
+    settings = args.puct_settings()
+    if args.search_iterations is not None:
+        settings = dataclasses.replace(settings, iterations=args.search_iterations)
+    return AlphaZeroAgent(function, settings)

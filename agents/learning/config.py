@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from numbers import Integral, Real
 from typing import Any
 
+from ns_pz.agents.learning.puct import PUCTSettings
+
 #: The paper's DQN hidden widths per family (NS-Gym "layers" count ``Linear`` layers).
 DDQN_HIDDEN = {
     "FrozenLakeFamily": (64,),
@@ -224,6 +226,24 @@ class AlphaZeroArgs:
         _real("temperature_decay", self.temperature_decay, 0.0, 1.0)
         _real("learning_rate", self.learning_rate, 0.0)
         _real("weight_decay", self.weight_decay, 0.0)
+
+    def puct_settings(self) -> PUCTSettings:
+        """The search settings of self-play (call on the result of :meth:`for_family`).
+
+        Raises:
+            ValueError: ``c`` or ``gamma`` is still None.
+        """
+        if self.c is None or self.gamma is None:
+            raise ValueError(f"c={self.c!r} and gamma={self.gamma!r} must be set (for_family)")
+        return PUCTSettings(
+            iterations=self.iterations,
+            depth=self.depth,
+            c=self.c,
+            gamma=self.gamma,
+            dirichlet_alpha=self.dirichlet_alpha if self.dirichlet_alpha is not None else 1.0,
+            noise=self.noise or 0.0,
+            normalise_q=self.normalise_q,
+        )
 
     def for_family(self, family: object) -> AlphaZeroArgs:
         """These settings with the paper's values filled in for ``family`` where None."""

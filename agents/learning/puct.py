@@ -118,19 +118,35 @@ def _select(node: _Node, c: float, rng: np.random.Generator, bounds: list[float]
     return int(best[0] if len(best) == 1 else best[uniform_index(rng, len(best))])
 
 
+@dataclass(frozen=True)
+class PUCTSettings:
+    """PUCT's hyper-parameters.
+
+    Attributes:
+        iterations: Simulations (>= 1).
+        depth: Most levels a simulation descends through existing nodes.
+        c: Exploration constant.
+        gamma: Discount.
+        dirichlet_alpha: Concentration of the root noise.
+        noise: Weight ε of the root noise (0: none, and no draw from the generator).
+        normalise_q: Min-max scale Q in the selection by the values backed up so far.
+    """
+
+    iterations: int
+    depth: int
+    c: float
+    gamma: float
+    dirichlet_alpha: float = 1.0
+    noise: float = 0.0
+    normalise_q: bool = False
+
+
 def puct_tree(
     model: Any,
     root_state: Any,
     rng: np.random.Generator,
-    *,
     evaluate: Evaluation,
-    iterations: int,
-    depth: int,
-    c: float,
-    gamma: float,
-    dirichlet_alpha: float = 1.0,
-    noise: float = 0.0,
-    normalise_q: bool = False,
+    settings: PUCTSettings,
 ) -> PUCTTree:
     """Run PUCT from ``root_state`` in ``model`` (``model.transition``; its state is untouched).
 
@@ -139,14 +155,10 @@ def puct_tree(
         root_state: The state to decide in.
         rng: The search generator (root noise, tie-breaks).
         evaluate: ``evaluate(state) -> (priors, value)``.
-        iterations: Simulations (>= 1).
-        depth: Most levels a simulation descends through existing nodes.
-        c: Exploration constant.
-        gamma: Discount.
-        dirichlet_alpha: Concentration of the root noise.
-        noise: Weight ε of the root noise (0: none, and no draw from ``rng``).
-        normalise_q: Min-max scale Q in the selection by the values backed up so far.
+        settings: The hyper-parameters.
     """
+    c, gamma, depth = settings.c, settings.gamma, settings.depth
+    noise, dirichlet_alpha = settings.noise, settings.dirichlet_alpha
     num_actions = num_actions_of(model)
     priors, value = evaluate(root_state)
     if noise > 0.0:
@@ -154,9 +166,9 @@ def puct_tree(
             np.full(num_actions, dirichlet_alpha)
         )
     root = _Node(root_state, False, priors, value, num_actions)
-    bounds = [np.inf, -np.inf] if normalise_q else None
+    bounds = [np.inf, -np.inf] if settings.normalise_q else None
     nodes, simulated = 1, 0
-    for _ in range(iterations):
+    for _ in range(settings.iterations):
         node, path, level = root, [], 0
         while True:
             action = _select(node, c, rng, bounds)
@@ -194,34 +206,15 @@ def puct(
     model: Any,
     root_state: Any,
     rng: np.random.Generator,
-    *,
     evaluate: Evaluation,
-    iterations: int,
-    depth: int,
-    c: float,
-    gamma: float,
-    dirichlet_alpha: float = 1.0,
-    noise: float = 0.0,
-    normalise_q: bool = False,
+    settings: PUCTSettings,
 ) -> SearchResult:
     """One PUCT decision: the most visited root action (ties uniform); see :func:`puct_tree`."""
-    tree = puct_tree(
-        model,
-        root_state,
-        rng,
-        evaluate=evaluate,
-        iterations=iterations,
-        depth=depth,
-        c=c,
-        gamma=gamma,
-        dirichlet_alpha=dirichlet_alpha,
-        noise=noise,
-        normalise_q=normalise_q,
-    )
+    tree = puct_tree(model, root_state, rng, evaluate, settings)
     best = np.flatnonzero(tree.visits == tree.visits.max())
     action = int(best[0] if len(best) == 1 else best[uniform_index(rng, len(best))])
     stats = {
-        "iterations": float(iterations),
+        "iterations": float(settings.iterations),
         "nodes": float(tree.num_nodes),
         "simulated_steps": float(tree.simulated_steps),
     }
