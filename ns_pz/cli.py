@@ -134,7 +134,7 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
     training = 0.0
     for experiment in specs:  # trained once, in the driver, before any trial
-        for trained in train_artefacts(experiment, expand(experiment), sys.stderr):
+        for trained in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
             training += trained.seconds
             out(f"training: {trained.label}: {trained.seconds:.1f} s")
     grand = 0.0
@@ -166,7 +166,7 @@ def train(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
     total = 0.0
     for experiment in specs:
-        for cost in train_artefacts(experiment, expand(experiment), sys.stderr):
+        for cost in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
             state = "trained now" if cost.trained_now else "cached"
             total += cost.seconds if cost.trained_now else 0.0
             out(f"{experiment.name}: {cost.label}: {state} ({cost.seconds:.1f} s of training)")
@@ -233,6 +233,9 @@ def _parser() -> argparse.ArgumentParser:
     )
     trainer.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
     trainer.add_argument("--size", choices=("quick", "full"), default="quick")
+    trainer.add_argument(
+        "--workers", type=int, default=os.cpu_count() or 1, help="networks trained at once"
+    )
     return parser
 
 
@@ -243,7 +246,7 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
     parser = _parser()
     args = parser.parse_args(argv)
     action = args.command if args.command in ("envs", "train") else args.action
-    if action in ("run", "estimate") and args.workers < 1:
+    if action in ("run", "estimate", "train") and args.workers < 1:
         parser.error(f"--workers={args.workers} must be >= 1")
     if action == "estimate" and args.samples < 1:
         parser.error(f"--samples={args.samples} must be >= 1")
