@@ -153,3 +153,101 @@ def test_bad_args_are_refused():
         AlphaZeroArgs(value_target="mc")
     with pytest.raises(ValueError, match="episodes=0 must be >= 1"):
         AlphaZeroArgs(episodes=0)
+
+
+def _random_function(space, seed):
+    """A fixed random policy/value network over ``space``."""
+    from ns_pz.agents.learning.puct import PolicyValueFunction
+
+    rng = np.random.default_rng(seed)
+    n = int(space.n)
+    weights = {
+        "trunk.0.weight": rng.normal(size=(16, n)),
+        "trunk.0.bias": rng.normal(size=16),
+        "policy.0.weight": rng.normal(size=(4, 16)),
+        "policy.0.bias": rng.normal(size=4),
+        "value.0.weight": rng.normal(size=(1, 16)),
+        "value.0.bias": rng.normal(size=1),
+    }
+    return PolicyValueFunction(weights, space)
+
+
+@pytest.mark.parametrize("normalise_q", [False, True])
+@pytest.mark.parametrize(
+    ("env_id", "slip", "noise"),
+    [
+        ("ns_pz/FrozenLake-v0", [0.7, 0.15, 0.15], 0.0),
+        ("ns_pz/CliffWalking-v0", [0.6, 0.2, 0.1, 0.1], 0.75),
+        ("ns_pz/Bridge-v0", [0.7, 0.15, 0.15], 0.0),
+    ],
+)
+def test_compiled_puct_builds_the_python_tree(env_id, slip, noise, normalise_q):
+    """Same generators, same tree: compiled and Python PUCT agree on every root statistic."""
+    import copy
+
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import TabularEvaluation, model_evaluation
+
+    env = ns_pz.make_gym(env_id, params={"slip": slip})
+    env.reset(seed=3)
+    function = _random_function(env.family.observation_space, 3)
+    settings = PUCTSettings(
+        60, 10, 1.3, 0.95, dirichlet_alpha=0.5, noise=noise, normalise_q=normalise_q
+    )
+    for seed in range(3):
+        model = env.planning_model()
+        twin = copy.deepcopy(model)
+        evaluate = model_evaluation(function, model)
+        assert isinstance(evaluate, TabularEvaluation)
+        state = model.get_state()
+        python = puct_tree(model, state, np.random.default_rng(seed), evaluate, settings, "python")
+        compiled = puct_tree(
+            twin, state, np.random.default_rng(seed), evaluate, settings, "compiled"
+        )
+        np.testing.assert_array_equal(compiled.visits, python.visits)
+        np.testing.assert_array_equal(compiled.q, python.q)
+        assert (compiled.num_nodes, compiled.simulated_steps) == (
+            python.num_nodes,
+            python.simulated_steps,
+        )
+        _, _, terminated, truncated, _ = env.step(int(np.argmax(python.visits)))
+        if terminated or truncated:
+            env.reset(seed=seed)
+
+
+def test_compiled_puct_refuses_continuous_models():
+    """CartPole has no tabulated network: backend='compiled' says why."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import model_evaluation
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    function = _random_cartpole_function()
+    with pytest.raises(ValueError, match="compiled PUCT needs a tabular model"):
+        puct_tree(
+            model,
+            model.get_state(),
+            np.random.default_rng(0),
+            model_evaluation(function, model),
+            PUCTSettings(5, 5, 1.0, 1.0),
+            "compiled",
+        )
+
+
+def _random_cartpole_function():
+    """A random policy/value network over CartPole's 4 floats."""
+    from ns_pz.agents.learning.puct import PolicyValueFunction
+
+    rng = np.random.default_rng(0)
+    weights = {
+        "trunk.0.weight": rng.normal(size=(8, 4)),
+        "trunk.0.bias": rng.normal(size=8),
+        "policy.0.weight": rng.normal(size=(2, 8)),
+        "policy.0.bias": rng.normal(size=2),
+        "value.0.weight": rng.normal(size=(1, 8)),
+        "value.0.bias": rng.normal(size=1),
+    }
+    return PolicyValueFunction(
+        weights, ns_pz.make_gym("ns_pz/CartPole-v0").family.observation_space
+    )

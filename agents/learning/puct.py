@@ -18,22 +18,26 @@ with its settings bound), returning the same :class:`SearchResult`:
 * the action played is the most visited one; the self-play targets are the visit
   distribution at a temperature and the visit-weighted root Q.
 
-Why there is no compiled path (unlike UCT): every node creation calls the network, which lives
-outside numba; with no rollouts, a PUCT simulation costs a handful of model steps plus one
-small numpy forward pass, so the search is dominated by Python bookkeeping that a compiled
-kernel would only pay off for with the network itself compiled (a possible later step: for
-tabular families the frozen network is a table over states).
+Two paths, as for UCT. On a tabular model the frozen network is first tabulated over the
+states (:class:`TabularEvaluation`, one batched forward pass), and with numba installed the
+search runs compiled (:mod:`ns_pz.agents.learning._puct_kernels`), building the same tree as
+the Python path for the same generators. Other models (CartPole) run the Python path: their
+states are continuous, so the network would have to run inside the kernel.
 """
 
 from __future__ import annotations
 
+import importlib
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 from ns_pz.agents.learning.features import NumpyMLP, features
+from ns_pz.agents.search.compiled import CompiledModel, TabularData, compile_model
 from ns_pz.agents.search.mcts import num_actions_of, uniform_index
 from ns_pz.agents.search.types import SearchResult
 
@@ -57,10 +61,32 @@ class PolicyValueFunction:
 
     def __call__(self, observation: Any) -> tuple[np.ndarray, float]:
         """Priors ``[num_actions]`` and the value of one base observation."""
-        h = np.maximum(self.trunk(features(self.space, observation)), 0.0)
+        priors, values = self.batch(features(self.space, observation)[None, :])
+        return priors[0], float(values[0])
+
+    def batch(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Priors ``[batch, num_actions]`` and values ``[batch]`` of feature rows ``x``."""
+        h = np.maximum(self.trunk(x), 0.0)
         logits = self.policy(h)
-        priors = np.exp(logits - logits.max())
-        return priors / priors.sum(), float(self.value(h)[0])
+        priors = np.exp(logits - logits.max(axis=1, keepdims=True))
+        return priors / priors.sum(axis=1, keepdims=True), self.value(h)[:, 0]
+
+
+@dataclass(frozen=True)
+class TabularEvaluation:
+    """A policy/value network tabulated over the states of a tabular model.
+
+    Attributes:
+        priors: ``[num_states, num_actions]``, rows sum to 1.
+        values: ``[num_states]``.
+    """
+
+    priors: np.ndarray
+    values: np.ndarray
+
+    def __call__(self, state: Any) -> tuple[np.ndarray, float]:
+        """The row of ``state``."""
+        return self.priors[state], float(self.values[state])
 
 
 @dataclass(frozen=True)
@@ -147,6 +173,7 @@ def puct_tree(
     rng: np.random.Generator,
     evaluate: Evaluation,
     settings: PUCTSettings,
+    backend: str = "auto",
 ) -> PUCTTree:
     """Run PUCT from ``root_state`` in ``model`` (``model.transition``; its state is untouched).
 
@@ -156,7 +183,13 @@ def puct_tree(
         rng: The search generator (root noise, tie-breaks).
         evaluate: ``evaluate(state) -> (priors, value)``.
         settings: The hyper-parameters.
+        backend: ``"auto"`` (compiled for a tabular model with a :class:`TabularEvaluation`
+            when numba is installed), ``"compiled"`` (fail if not possible) or ``"python"``.
+
+    Raises:
+        ValueError: An unknown backend, or ``"compiled"`` where it is not possible.
     """
+    compiled = _compiled(model, evaluate, backend)
     c, gamma, depth = settings.c, settings.gamma, settings.depth
     noise, dirichlet_alpha = settings.noise, settings.dirichlet_alpha
     num_actions = num_actions_of(model)
@@ -165,6 +198,23 @@ def puct_tree(
         priors = (1.0 - noise) * priors + noise * rng.dirichlet(
             np.full(num_actions, dirichlet_alpha)
         )
+    if compiled is not None:
+        assert isinstance(evaluate, TabularEvaluation)  # _compiled checked it
+        visits, q, nodes, simulated = _kernels().puct_tabular(
+            compiled.data,
+            int(root_state),
+            np.asarray(priors, dtype=np.float64),
+            evaluate.priors,
+            evaluate.values,
+            settings.iterations,
+            depth,
+            float(c),
+            float(gamma),
+            settings.normalise_q,
+            compiled.rng,
+            rng,
+        )
+        return PUCTTree(visits, q, value, int(nodes), int(simulated))
     root = _Node(root_state, False, priors, value, num_actions)
     bounds = [np.inf, -np.inf] if settings.normalise_q else None
     nodes, simulated = 1, 0
@@ -208,9 +258,10 @@ def puct(
     rng: np.random.Generator,
     evaluate: Evaluation,
     settings: PUCTSettings,
+    backend: str = "auto",
 ) -> SearchResult:
     """One PUCT decision: the most visited root action (ties uniform); see :func:`puct_tree`."""
-    tree = puct_tree(model, root_state, rng, evaluate, settings)
+    tree = puct_tree(model, root_state, rng, evaluate, settings, backend)
     best = np.flatnonzero(tree.visits == tree.visits.max())
     action = int(best[0] if len(best) == 1 else best[uniform_index(rng, len(best))])
     stats = {
@@ -222,6 +273,32 @@ def puct(
 
 
 def model_evaluation(function: PolicyValueFunction, model: Any) -> Evaluation:
-    """``evaluate(state)`` for states of ``model``: the network on the family's observation."""
+    """``evaluate(state)`` for states of ``model``: the network on the family's observation.
+
+    For a tabular model (an outcome table and a ``Discrete`` observation of the state index)
+    the network is tabulated over all states at once (:class:`TabularEvaluation`).
+    """
+    space = function.space
+    if hasattr(model, "outcomes") and isinstance(space, spaces.Discrete) and space.start == 0:
+        priors, values = function.batch(np.eye(int(space.n), dtype=np.float32))
+        return TabularEvaluation(priors, values)
     observe = model.family.observe
     return lambda state: function(observe(state))
+
+
+def _compiled(model: Any, evaluate: Evaluation, backend: str) -> CompiledModel | None:
+    """The compiled tabular model to search, or None for the Python path."""
+    compiled = compile_model(model, backend)  # checks the backend's name
+    if compiled is not None and isinstance(compiled.data, TabularData):
+        if isinstance(evaluate, TabularEvaluation):
+            return compiled
+    if backend == "compiled":
+        raise ValueError(
+            "backend='compiled' is not possible: compiled PUCT needs a tabular model and a "
+            "TabularEvaluation (model_evaluation gives one for tabular models)"
+        )
+    return None
+
+
+def _kernels() -> ModuleType:
+    return importlib.import_module("ns_pz.agents.learning._puct_kernels")
