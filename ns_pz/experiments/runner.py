@@ -99,6 +99,9 @@ def train_artefacts(
     Every distinct artefact is trained under its key's file lock (see
     :mod:`ns_pz.agents.learning.artefacts`), so concurrent runs sharing the cache train it once
     too; the workers then only load it. Cached ones report the training time they recorded.
+    ``workers`` processes train distinct networks at once. Ray workers on other machines read
+    their own cache folder: share it (``NS_PZ_CACHE_DIR`` on a shared disk), or each machine
+    trains a missing network itself, once per machine.
     """
     needs: list[Needed] = []
     seen: set[str] = set()
