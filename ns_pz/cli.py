@@ -132,11 +132,12 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ns_pz.experiments.trials import expand
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
-    training = 0.0
+    training: dict[str, float] = {}  # by key: specs with the same θ_0 share a network
     for experiment in specs:  # trained once, in the driver, before any trial
         for trained in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
-            training += trained.seconds
-            out(f"training: {trained.label}: {trained.seconds:.1f} s")
+            if trained.key not in training:
+                training[trained.key] = trained.seconds
+                out(f"training: {trained.label}: {trained.seconds:.1f} s")
     grand = 0.0
     out("| spec | setting | notification | agent | s/trial | trials | projected s (1 core) |")
     out("|---|---|---|---|---|---|---|")
@@ -147,11 +148,12 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
                 f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} | "
                 f"{cost.seconds_per_trial:.3f} | {cost.trials} | {cost.total_seconds:.0f} |"
             )
-    wall = training + grand / args.workers
+    trained = sum(training.values()) / args.workers  # distinct networks train in parallel
+    wall = trained + grand / args.workers
     out(
         f"\nprojected wall time on {args.workers} worker(s): {wall:.0f} s "
-        f"({wall / 3600:.2f} h), of which training {training:.0f} s "
-        f"({100 * training / max(wall, 1e-9):.0f}%), from {args.samples} sampled seed(s) per cell"
+        f"({wall / 3600:.2f} h), of which training {trained:.0f} s "
+        f"({100 * trained / max(wall, 1e-9):.0f}%), from {args.samples} sampled seed(s) per cell"
     )
     return EXIT_OK
 
@@ -169,7 +171,7 @@ def train(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         for cost in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
             state = "trained now" if cost.trained_now else "cached"
             total += cost.seconds if cost.trained_now else 0.0
-            out(f"{experiment.name}: {cost.label}: {state} ({cost.seconds:.1f} s of training)")
+            out(f"{experiment.name}: {cost.label}: {state} ({cost.seconds:.1f} s)")
     out(f"\n{total:.0f} s of training in this call; artefacts in {cache_dir()}")
     return EXIT_OK
 

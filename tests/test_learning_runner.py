@@ -46,6 +46,7 @@ name = "pamcts"
 label = "PA"
 params = { alpha = 0.5, iterations = 20, depth = 10 }
 quick = { ddqn = { total_steps = 1500, learning_starts = 100 } }
+full = { ddqn = { total_steps = 1500, learning_starts = 100 } }
 
 [[agents]]
 name = "alphazero"
@@ -94,3 +95,22 @@ def test_runner_trains_each_network_once_before_the_workers(tmp_path):
     again = train_artefacts(spec, expand(spec))
     assert [cost.trained_now for cost in again] == [False, False]
     assert all(cost.seconds > 0 for cost in again)  # the recorded training time
+
+
+def test_train_command_builds_then_finds_the_networks(tmp_path):
+    """``ns-pz train`` trains the spec's two networks, and a second call finds them cached."""
+    from ns_pz.cli import main
+
+    path = tmp_path / "learners.toml"
+    path.write_text(SPEC)
+    lines: list[str] = []
+    assert main(["train", str(path), "--workers", "1"], lines.append) == 0
+    assert sum("trained now" in line for line in lines) == 2
+    lines.clear()
+    assert main(["train", str(path)], lines.append) == 0
+    assert sum("cached" in line for line in lines) == 2
+    lines.clear()
+    argv = ["bench", "estimate", str(path), "--samples", "1", "--workers", "2"]
+    assert main(argv, lines.append) == 0
+    assert sum(line.startswith("training: ") for line in lines) == 2  # shared ones once
+    assert "of which training" in lines[-1]

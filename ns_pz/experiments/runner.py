@@ -81,11 +81,13 @@ class TrainingCost:
     """One trained network a spec needs, and what it cost.
 
     Attributes:
+        key: The artefact's key (specs with the same θ_0 share artefacts).
         label: What was trained (learner, family, θ_0, budget).
         seconds: Training time (measured now, or recorded in the cached artefact).
         trained_now: Whether this run trained it (False: it was in the cache).
     """
 
+    key: str
     label: str
     seconds: float
     trained_now: bool
@@ -117,7 +119,7 @@ def train_artefacts(
         if not trained:
             info = read_manifest(artefact_path(need.request)).get("info", {})
             seconds = float(info.get("seconds", 0.0))
-        costs.append(TrainingCost(need.label, seconds, trained))
+        costs.append(TrainingCost(need.request.key, need.label, seconds, trained))
         if progress is not None and trained:
             progress.write(f"trained {need.label} in {seconds:.1f} s\n")
 
