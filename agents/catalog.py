@@ -17,6 +17,7 @@ from typing import Any
 
 from ns_pz.agents.base import Agent
 from ns_pz.agents.baselines import RandomAgent
+from ns_pz.agents.learning import entries as learning
 from ns_pz.agents.planners import RandomShooting, SnapshotValueIteration
 from ns_pz.agents.search.ada_mcts import ADAMCTS
 from ns_pz.agents.search.mcts import MCTS
@@ -41,6 +42,9 @@ class AgentEntry:
         levels: Notification levels the agent is meant to run at (ADA-MCTS: ``none`` only).
         signature_of: The function whose keyword-only parameters are the hyper-parameters, when
             ``build`` forwards ``**hyper_parameters`` to it (default: ``build`` itself).
+        artefacts: ``artefacts(env, hyper) -> [Needed, ...]``, the trained networks the agent
+            loads (:mod:`ns_pz.agents.learning.trained`), for agents that need any: the runner
+            trains what is missing once before the trials, and spec checks do not act with it.
     """
 
     name: str
@@ -49,6 +53,7 @@ class AgentEntry:
     tabular_only: bool = False
     levels: frozenset[str] = ALL_LEVELS
     signature_of: Callable[..., Any] | None = None
+    artefacts: Callable[[NSGymEnv, Mapping[str, Any]], list[Any]] | None = None
 
     def defaults(self) -> dict[str, Any]:
         """Hyper-parameter names and their default values."""
@@ -222,3 +227,14 @@ register_agent(
         "best first action by random rollouts in the handed model",
     )
 )
+for _entry in learning.ENTRIES:
+    register_agent(
+        AgentEntry(
+            _entry.name,
+            _entry.build,
+            _entry.description,
+            signature_of=_entry.signature_of,
+            artefacts=_entry.artefacts,
+            levels=_entry.levels or ALL_LEVELS,
+        )
+    )

@@ -8,6 +8,7 @@
     ns-pz bench plot DIR
     ns-pz bench estimate paper --size full    time a few seeds per cell, project the run
     ns-pz bench list                      shipped specs
+    ns-pz train paper [--size full]       train (or find cached) the networks the specs' agents use
     ns-pz envs                            registered envs, their θ, defaults and bounds
     ns-pz --version
 
@@ -155,9 +156,16 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
 def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench estimate``: time a few seeds of every cell, project the whole run."""
     from ns_pz.experiments import load_spec
-    from ns_pz.experiments.runner import estimate
+    from ns_pz.experiments.runner import estimate, train_artefacts
+    from ns_pz.experiments.trials import expand
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
+    training: dict[str, float] = {}  # by key: specs with the same θ_0 share a network
+    for experiment in specs:  # trained once, in the driver, before any trial
+        for trained in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
+            if trained.key not in training:
+                training[trained.key] = trained.seconds
+                out(f"training: {trained.label}: {trained.seconds:.1f} s")
     grand = grand_cpu = 0.0
     out(
         "| spec | setting | notification | agent | s/trial | CPU s/trial | trials "
@@ -174,12 +182,32 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
                 f"{cost.trials} | {cost.total_seconds:.0f} |"
             )
     workers = args.workers
+    trained = sum(training.values()) / workers  # distinct networks train in parallel
+    wall, wall_cpu = trained + grand / workers, trained + grand_cpu / workers
     out(
-        f"\nprojected wall time on {workers} worker(s): {grand / workers:.0f} s "
-        f"({grand / workers / 3600:.2f} h) at this machine's present load; "
-        f"{grand_cpu / workers:.0f} s ({grand_cpu / workers / 3600:.2f} h) on idle cores "
-        f"(from CPU time); from {args.samples} sampled seed(s) per cell"
+        f"\nprojected wall time on {workers} worker(s): {wall:.0f} s ({wall / 3600:.2f} h) at "
+        f"this machine's present load; {wall_cpu:.0f} s ({wall_cpu / 3600:.2f} h) on idle cores "
+        f"(from CPU time); of which training {trained:.0f} s; from {args.samples} sampled "
+        f"seed(s) per cell"
     )
+    return EXIT_OK
+
+
+def train(args: argparse.Namespace, out: Callable[[str], None]) -> int:
+    """``train``: build every network the specs' learning agents need (cached ones are kept)."""
+    from ns_pz.agents.learning.artefacts import cache_dir
+    from ns_pz.experiments import load_spec
+    from ns_pz.experiments.runner import train_artefacts
+    from ns_pz.experiments.trials import expand
+
+    specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
+    total = 0.0
+    for experiment in specs:
+        for cost in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
+            state = "trained now" if cost.trained_now else "cached"
+            total += cost.seconds if cost.trained_now else 0.0
+            out(f"{experiment.name}: {cost.label}: {state} ({cost.seconds:.1f} s)")
+    out(f"\n{total:.0f} s of training in this call; artefacts in {cache_dir()}")
     return EXIT_OK
 
 
@@ -237,6 +265,15 @@ def _parser() -> argparse.ArgumentParser:
     cost.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="to project for")
 
     actions.add_parser("list", help="list the shipped specs")
+
+    trainer = commands.add_parser(
+        "train", help="train the networks the specs' learning agents use (cached per θ_0)"
+    )
+    trainer.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
+    trainer.add_argument("--size", choices=("quick", "full"), default="quick")
+    trainer.add_argument(
+        "--workers", type=int, default=os.cpu_count() or 1, help="networks trained at once"
+    )
     return parser
 
 
@@ -246,8 +283,8 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
 
     parser = _parser()
     args = parser.parse_args(argv)
-    action = "envs" if args.command == "envs" else args.action
-    if action in ("run", "estimate") and args.workers < 1:
+    action = args.command if args.command in ("envs", "train") else args.action
+    if action in ("run", "estimate", "train") and args.workers < 1:
         parser.error(f"--workers={args.workers} must be >= 1")
     if action == "estimate" and args.samples < 1:
         parser.error(f"--samples={args.samples} must be >= 1")
@@ -262,6 +299,7 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
         "plot": bench_plot,
         "list": bench_list,
         "estimate": bench_estimate,
+        "train": train,
     }
     previous = signal.signal(signal.SIGTERM, _interrupt)  # a scheduler's stop, like Ctrl-C
     try:
@@ -269,7 +307,7 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
     except BrokenPipeError:  # the reader went away (``ns-pz bench list | head``)
         sys.stderr.close()
         return EXIT_OK
-    except (SpecError, ValueError, OSError, RuntimeError) as error:
+    except (SpecError, ValueError, OSError, RuntimeError, ImportError) as error:
         print(f"ns-pz: error: {error}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -8,6 +8,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
+from ns_pz.agents.catalog import agent_entry
+from ns_pz.agents.learning.artefacts import artefact_path, read_manifest
+from ns_pz.agents.learning.trained import Needed, prepare
 from ns_pz.experiments.backends import Backend
 from ns_pz.experiments.lock import locked
 from ns_pz.experiments.progress import Progress
@@ -58,6 +61,7 @@ def run_spec(
         trials = expand(spec)
         finished = store.finished(spec.digest())
         todo = [trial for trial in trials if trial.key not in finished]
+        train_artefacts(spec, todo, progress, getattr(backend, "workers", 1))
         if progress is not None:
             for path, reason in store.unreadable():
                 progress.write(f"{path} is unreadable ({reason}); its trial runs again\n")
@@ -80,6 +84,60 @@ def run_spec(
             if bar is not None:
                 bar.close()
     return RunSummary(store.root, len(trials), len(trials) - len(todo), len(todo), failed)
+
+
+@dataclass(frozen=True)
+class TrainingCost:
+    """One trained network a spec needs, and what it cost.
+
+    Attributes:
+        key: The artefact's key (specs with the same θ_0 share artefacts).
+        label: What was trained (learner, family, θ_0, budget).
+        seconds: Training time (measured now, or recorded in the cached artefact).
+        trained_now: Whether this run trained it (False: it was in the cache).
+    """
+
+    key: str
+    label: str
+    seconds: float
+    trained_now: bool
+
+
+def train_artefacts(
+    spec: ExperimentSpec, trials: list[Trial], progress: TextIO | None = None, workers: int = 1
+) -> list[TrainingCost]:
+    """Train, once each and here (before any worker starts), the networks ``trials`` need.
+
+    Every distinct artefact is trained under its key's file lock (see
+    :mod:`ns_pz.agents.learning.artefacts`), so concurrent runs sharing the cache train it once
+    too; the workers then only load it. Cached ones report the training time they recorded.
+    ``workers`` processes train distinct networks at once. Ray workers on other machines read
+    their own cache folder: share it (``NS_PZ_CACHE_DIR`` on a shared disk), or each machine
+    trains a missing network itself, once per machine.
+    """
+    needs: list[Needed] = []
+    seen: set[str] = set()
+    for trial in trials:
+        entry = agent_entry(trial.agent.name)
+        if entry.artefacts is None or trial.agent.label in seen:
+            continue
+        seen.add(trial.agent.label)  # every cell of a spec shares θ_0 and the family
+        needs.extend(entry.artefacts(spec.make_env(trial.cell), trial.agent.hyper))
+    costs = []
+
+    def report(need: Needed, seconds: float, trained: bool) -> None:
+        if not trained:
+            info = read_manifest(artefact_path(need.request)).get("info", {})
+            seconds = float(info.get("seconds", 0.0))
+        costs.append(TrainingCost(need.request.key, need.label, seconds, trained))
+        if progress is not None and trained:
+            progress.write(f"trained {need.label} in {seconds:.1f} s\n")
+
+    if needs and progress is not None:
+        count = len({need.request.key for need in needs})
+        progress.write(f"{spec.name} needs {count} trained network(s)\n")
+    prepare(needs, report=report, workers=workers)
+    return costs
 
 
 @dataclass(frozen=True)
@@ -124,6 +182,7 @@ def estimate(
     """
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         raise ValueError(f"samples={samples!r} must be an integer >= 1")
+    train_artefacts(spec, expand(spec))  # trained once up front, not inside a timed trial
     groups: dict[tuple[int, str, str], list] = {}
     for trial in expand(spec):
         key = (trial.cell.index, trial.cell.notification, trial.agent.label)

@@ -710,7 +710,17 @@ class _Checker:
     def try_agent(
         self, where: str, field: str, entry: Any, hyper: Mapping[str, Any], env: NSGymEnv
     ) -> None:
-        """Build the agent and let it act once, so an agent that cannot run here fails now."""
+        """Build the agent and let it act once, so an agent that cannot run here fails now.
+
+        An agent that needs trained networks is only checked for its hyper-parameters: acting
+        would train them, which the runner does once before the trials.
+        """
+        if entry.artefacts is not None:
+            try:
+                entry.artefacts(env, hyper)
+            except (TypeError, ValueError) as error:
+                raise self.fail(field, str(error)) from None
+            return
         try:
             agent = entry.make(env, hyper)
         except (TypeError, ValueError) as error:

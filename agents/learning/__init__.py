@@ -1,0 +1,7 @@
+"""Learning agents: Double DQN (and DDQN-WN), AlphaZero and PA-MCTS on networks trained on θ_0.
+
+Importing this package does not import torch or numba. Trained networks are stored as arrays
+(:mod:`.artefacts`) and the agents act with numpy forward passes; only training (:mod:`.ddqn`,
+:mod:`.alphazero`) and DDQN-WN's fine-tuning (:mod:`.ddqn_wn`) import torch (the ``learn``
+extra), and compiled PUCT (:mod:`._puct_kernels`) imports numba on first use.
+"""

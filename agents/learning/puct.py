@@ -1,0 +1,304 @@
+"""PUCT: AlphaZero's search, guided by a policy/value function (ALGORITHMS.md §2.1).
+
+A search function like :func:`ns_pz.agents.search.mcts.uct` (``search(model, root_state, rng)``
+with its settings bound), returning the same :class:`SearchResult`:
+
+* a node is created with ``(P, v) = evaluate(state)``; every action's Q starts at ``v``
+  (first-play value = the node's own value); at the root the priors are mixed with Dirichlet
+  noise, ``(1 - ε) P + ε Dir(α)``;
+* selection: ``argmax_a Q(n, a) + c P(n, a) sqrt(1 + N(n)) / (1 + N(n, a))``, ties uniform;
+  with ``normalise_q`` (MuZero's rule) Q is first min-max scaled by the smallest and largest
+  value backed up in the tree so far, so ``c`` means the same whatever the reward scale
+  (CliffWalking's ±100 otherwise swamps the prior term and the root noise entirely);
+* a chance node (n, a) has one child per sampled next state; a simulation descends until it
+  creates a node, reaches a terminal node or has descended ``depth`` levels, and takes the
+  node's value as the leaf value;
+* a terminal node's value is 0: the reward of entering it is already on the edge, added by the
+  backup ``G <- r + γ G`` (the in-tree rewards are backed up, as AlphaZero's code does);
+* the action played is the most visited one; the self-play targets are the visit
+  distribution at a temperature and the visit-weighted root Q.
+
+Two paths, as for UCT. On a tabular model the frozen network is first tabulated over the
+states (:class:`TabularEvaluation`, one batched forward pass), and with numba installed the
+search runs compiled (:mod:`ns_pz.agents.learning._puct_kernels`), building the same tree as
+the Python path for the same generators. Other models (CartPole) run the Python path: their
+states are continuous, so the network would have to run inside the kernel.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from ns_pz.agents.learning.features import NumpyMLP, features
+from ns_pz.agents.search.compiled import CompiledModel, TabularData, compile_model
+from ns_pz.agents.search.mcts import num_actions_of, uniform_index
+from ns_pz.agents.search.types import SearchResult
+
+Evaluation = Callable[[Any], tuple[np.ndarray, float]]
+"""``evaluate(state) -> (priors [num_actions] summing to 1, value)`` of a model state."""
+
+
+class PolicyValueFunction:
+    """A trained policy/value network as numpy: ``(softmax priors, value)`` of an observation.
+
+    Args:
+        weights: Exported ``trunk.*``, ``policy.0.*`` and ``value.0.*`` arrays.
+        observation_space: The base environment's observation space.
+    """
+
+    def __init__(self, weights: Mapping[str, np.ndarray], observation_space: Any) -> None:
+        self.trunk = NumpyMLP(weights, "trunk")
+        self.policy = NumpyMLP(weights, "policy")
+        self.value = NumpyMLP(weights, "value")
+        self.space = observation_space
+
+    def __call__(self, observation: Any) -> tuple[np.ndarray, float]:
+        """Priors ``[num_actions]`` and the value of one base observation."""
+        priors, values = self.batch(features(self.space, observation)[None, :])
+        return priors[0], float(values[0])
+
+    def batch(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Priors ``[batch, num_actions]`` and values ``[batch]`` of feature rows ``x``."""
+        h = np.maximum(self.trunk(x), 0.0)
+        logits = self.policy(h)
+        priors = np.exp(logits - logits.max(axis=1, keepdims=True))
+        return priors / priors.sum(axis=1, keepdims=True), self.value(h)[:, 0]
+
+
+@dataclass(frozen=True)
+class TabularEvaluation:
+    """A policy/value network tabulated over the states of a tabular model.
+
+    Attributes:
+        priors: ``[num_states, num_actions]``, rows sum to 1.
+        values: ``[num_states]``.
+    """
+
+    priors: np.ndarray
+    values: np.ndarray
+
+    def __call__(self, state: Any) -> tuple[np.ndarray, float]:
+        """The row of ``state``."""
+        return self.priors[state], float(self.values[state])
+
+
+@dataclass(frozen=True)
+class PUCTTree:
+    """The root statistics of one PUCT search.
+
+    Attributes:
+        visits: ``[num_actions]`` N(root, a).
+        q: ``[num_actions]`` Q(root, a) (the root's value where unvisited).
+        root_value: The network's value of the root.
+        num_nodes: Decision nodes created, the root included.
+        simulated_steps: Model transitions made.
+    """
+
+    visits: np.ndarray
+    q: np.ndarray
+    root_value: float
+    num_nodes: int
+    simulated_steps: int
+
+    def policy_target(self, temperature: float) -> np.ndarray:
+        """``N(root, ·)^(1/T)`` normalised (computed in log space, so small T is safe)."""
+        logs = np.where(self.visits > 0, np.log(np.maximum(self.visits, 1)), -np.inf)
+        scaled = np.exp((logs - logs.max()) / temperature)
+        return scaled / scaled.sum()
+
+    def value_target(self) -> float:
+        """The visit-weighted root Q, ``Σ_a N(root, a) Q(root, a) / Σ_a N(root, a)``."""
+        return float(np.dot(self.visits, self.q) / self.visits.sum())
+
+
+class _Node:
+    __slots__ = ("state", "terminal", "value", "priors", "n", "visits", "w", "q", "children")
+
+    def __init__(
+        self, state: Any, terminal: bool, priors: np.ndarray, value: float, num_actions: int
+    ) -> None:
+        self.state = state
+        self.terminal = terminal
+        self.value = value
+        self.priors = priors
+        self.n = 0
+        self.visits = np.zeros(num_actions, dtype=np.int64)
+        self.w = np.zeros(num_actions)
+        self.q = np.full(num_actions, value)
+        self.children: list[dict[Any, _Node]] = [{} for _ in range(num_actions)]
+
+
+def _select(node: _Node, c: float, rng: np.random.Generator, bounds: list[float] | None) -> int:
+    q = node.q
+    if bounds is not None and bounds[1] > bounds[0]:
+        q = (q - bounds[0]) / (bounds[1] - bounds[0])
+    scores = q + c * node.priors * math.sqrt(1 + node.n) / (1 + node.visits)
+    best = np.flatnonzero(scores == scores.max())
+    return int(best[0] if len(best) == 1 else best[uniform_index(rng, len(best))])
+
+
+@dataclass(frozen=True)
+class PUCTSettings:
+    """PUCT's hyper-parameters.
+
+    Attributes:
+        iterations: Simulations (>= 1).
+        depth: Most levels a simulation descends through existing nodes.
+        c: Exploration constant.
+        gamma: Discount.
+        dirichlet_alpha: Concentration of the root noise.
+        noise: Weight ε of the root noise (0: none, and no draw from the generator).
+        normalise_q: Min-max scale Q in the selection by the values backed up so far.
+    """
+
+    iterations: int
+    depth: int
+    c: float
+    gamma: float
+    dirichlet_alpha: float = 1.0
+    noise: float = 0.0
+    normalise_q: bool = False
+
+
+def puct_tree(
+    model: Any,
+    root_state: Any,
+    rng: np.random.Generator,
+    evaluate: Evaluation,
+    settings: PUCTSettings,
+    backend: str = "auto",
+) -> PUCTTree:
+    """Run PUCT from ``root_state`` in ``model`` (``model.transition``; its state is untouched).
+
+    Args:
+        model: A planning model with a ``Discrete`` action space.
+        root_state: The state to decide in.
+        rng: The search generator (root noise, tie-breaks).
+        evaluate: ``evaluate(state) -> (priors, value)``.
+        settings: The hyper-parameters.
+        backend: ``"auto"`` (compiled for a tabular model with a :class:`TabularEvaluation`
+            when numba is installed), ``"compiled"`` (fail if not possible) or ``"python"``.
+
+    Raises:
+        ValueError: An unknown backend, or ``"compiled"`` where it is not possible.
+    """
+    compiled = _compiled(model, evaluate, backend)
+    c, gamma, depth = settings.c, settings.gamma, settings.depth
+    noise, dirichlet_alpha = settings.noise, settings.dirichlet_alpha
+    num_actions = num_actions_of(model)
+    priors, value = evaluate(root_state)
+    if noise > 0.0:
+        priors = (1.0 - noise) * priors + noise * rng.dirichlet(
+            np.full(num_actions, dirichlet_alpha)
+        )
+    if compiled is not None:
+        assert isinstance(evaluate, TabularEvaluation)  # _compiled checked it
+        visits, q, nodes, simulated = _kernels().puct_tabular(
+            compiled.data,
+            int(root_state),
+            np.asarray(priors, dtype=np.float64),
+            evaluate.priors,
+            evaluate.values,
+            settings.iterations,
+            depth,
+            float(c),
+            float(gamma),
+            settings.normalise_q,
+            compiled.rng,
+            rng,
+        )
+        return PUCTTree(visits, q, value, int(nodes), int(simulated))
+    root = _Node(root_state, False, priors, value, num_actions)
+    bounds = [np.inf, -np.inf] if settings.normalise_q else None
+    nodes, simulated = 1, 0
+    for _ in range(settings.iterations):
+        node, path, level = root, [], 0
+        while True:
+            action = _select(node, c, rng, bounds)
+            state, reward, done = model.transition(node.state, action)
+            simulated += 1
+            path.append((node, action, float(reward)))
+            child = node.children[action].get(state)
+            if child is None:
+                if done:
+                    child = _Node(state, True, np.full(num_actions, 1.0 / num_actions), 0.0, 0)
+                else:
+                    child_priors, child_value = evaluate(state)
+                    child = _Node(state, False, child_priors, child_value, num_actions)
+                node.children[action][state] = child
+                nodes += 1
+                leaf = child.value
+                break
+            node = child
+            if node.terminal or level == depth:
+                leaf = node.value
+                break
+            level += 1
+        for n, a, reward in reversed(path):
+            leaf = reward + gamma * leaf
+            n.visits[a] += 1
+            n.w[a] += leaf
+            n.q[a] = n.w[a] / n.visits[a]
+            n.n += 1
+            if bounds is not None:
+                bounds[0], bounds[1] = min(bounds[0], n.q[a]), max(bounds[1], n.q[a])
+    return PUCTTree(root.visits.copy(), root.q.copy(), value, nodes, simulated)
+
+
+def puct(
+    model: Any,
+    root_state: Any,
+    rng: np.random.Generator,
+    evaluate: Evaluation,
+    settings: PUCTSettings,
+    backend: str = "auto",
+) -> SearchResult:
+    """One PUCT decision: the most visited root action (ties uniform); see :func:`puct_tree`."""
+    tree = puct_tree(model, root_state, rng, evaluate, settings, backend)
+    best = np.flatnonzero(tree.visits == tree.visits.max())
+    action = int(best[0] if len(best) == 1 else best[uniform_index(rng, len(best))])
+    stats = {
+        "iterations": float(settings.iterations),
+        "nodes": float(tree.num_nodes),
+        "simulated_steps": float(tree.simulated_steps),
+    }
+    return SearchResult(action, tree.q.copy(), tree.visits.copy(), stats)
+
+
+def model_evaluation(function: PolicyValueFunction, model: Any) -> Evaluation:
+    """``evaluate(state)`` for states of ``model``: the network on the family's observation.
+
+    For a tabular model (an outcome table and a ``Discrete`` observation of the state index)
+    the network is tabulated over all states at once (:class:`TabularEvaluation`).
+    """
+    space = function.space
+    if hasattr(model, "outcomes") and isinstance(space, spaces.Discrete) and space.start == 0:
+        priors, values = function.batch(np.eye(int(space.n), dtype=np.float32))
+        return TabularEvaluation(priors, values)
+    observe = model.family.observe
+    return lambda state: function(observe(state))
+
+
+def _compiled(model: Any, evaluate: Evaluation, backend: str) -> CompiledModel | None:
+    """The compiled tabular model to search, or None for the Python path."""
+    compiled = compile_model(model, backend)  # checks the backend's name
+    if compiled is not None and isinstance(compiled.data, TabularData):
+        if isinstance(evaluate, TabularEvaluation):
+            return compiled
+    if backend == "compiled":
+        raise ValueError(
+            "backend='compiled' is not possible: compiled PUCT needs a tabular model and a "
+            "TabularEvaluation (model_evaluation gives one for tabular models)"
+        )
+    return None
+
+
+def _kernels() -> ModuleType:
+    return importlib.import_module("ns_pz.agents.learning._puct_kernels")

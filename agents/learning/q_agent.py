@@ -1,0 +1,99 @@
+"""The DDQN agent: greedy on a Q-network trained on θ_0 (numpy forward, no torch)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from ns_pz.agents.base import Agent
+from ns_pz.agents.learning.config import DDQNArgs
+from ns_pz.agents.learning.features import NumpyMLP, features
+from ns_pz.agents.learning.trained import ddqn_needed, obtain, torch_module
+
+from ns_pz.views import NSGymEnv
+
+
+class QNetwork:
+    """A trained Q-network over one observation space: ``q(observation) -> [num_actions]``.
+
+    Args:
+        weights: Exported arrays ``q.i.weight``/``q.i.bias``.
+        observation_space: The base environment's observation space (``Discrete``: one-hot).
+
+    Raises:
+        ValueError: The network's input does not fit ``observation_space``.
+    """
+
+    def __init__(self, weights: Mapping[str, np.ndarray], observation_space: spaces.Space) -> None:
+        self.mlp = NumpyMLP(weights, "q")
+        self.space = observation_space
+        size = len(features(observation_space, observation_space.sample()))
+        if self.mlp.input_size != size:
+            raise ValueError(
+                f"the Q-network takes {self.mlp.input_size} inputs; "
+                f"{observation_space} gives {size}"
+            )
+
+    def __call__(self, observation: Any) -> np.ndarray:
+        """``[num_actions]`` action values of one base observation."""
+        return self.mlp(features(self.space, observation))
+
+
+class DDQNAgent(Agent):
+    """Plays ``argmax_a Q(s, a)`` (lowest index on ties); needs no planning model.
+
+    Without fine-tuning this is the paper's DDQN "without notification" at every level.
+    """
+
+    def __init__(self, q_network: QNetwork) -> None:
+        self.q_network = q_network
+
+    def act(self, observation: dict[str, Any], model: Any | None = None) -> int:
+        """The greedy action for ``observation["state"]``."""
+        return int(np.argmax(self.q_network(observation["state"])))
+
+    def __repr__(self) -> str:
+        return f"DDQNAgent(layers={len(self.q_network.mlp.layers)})"
+
+
+def ddqn_q_network(env: NSGymEnv, args: DDQNArgs) -> QNetwork:
+    """The Q-network of ``env``'s θ_0 (trained now, once, if it is not cached)."""
+    return QNetwork(obtain(ddqn_needed(env, args)), env.family.observation_space)
+
+
+def build_ddqn(env: NSGymEnv, **hyper: Any) -> DDQNAgent:
+    """The DDQN agent for ``env``; ``hyper`` are :class:`DDQNArgs` fields."""
+    return DDQNAgent(ddqn_q_network(env, DDQNArgs(**hyper)))
+
+
+def build_ddqn_wn(
+    env: NSGymEnv,
+    *,
+    model_steps: int = 200,
+    gradient_steps: int = 50,
+    epsilon: float = 0.1,
+    ddqn: Mapping[str, Any] | None = None,
+) -> Agent:
+    """DDQN-WN for ``env``: the ``ddqn`` agent's network, fine-tuned on notified changes.
+
+    Args:
+        env: The environment it will act in.
+        model_steps: Transitions simulated in the handed model per notified change.
+        gradient_steps: Double-DQN updates per notified change.
+        epsilon: Exploration of the simulated transitions.
+        ddqn: :class:`DDQNArgs` of the network (as the ``ddqn`` agent's, to share it); its
+            learning rate, γ, τ, batch size and weight decay also drive the fine-tuning.
+    """
+    args = DDQNArgs(**dict(ddqn or {})).for_family(env.family)
+    weights = obtain(ddqn_needed(env, args))
+    module = torch_module("ddqn_wn")  # fine-tuning needs torch when acting
+    return module.FineTunedDDQNAgent(
+        weights,
+        env.family.observation_space,
+        args,
+        model_steps=model_steps,
+        gradient_steps=gradient_steps,
+        epsilon=epsilon,
+    )

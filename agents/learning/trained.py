@@ -1,0 +1,160 @@
+"""The trained networks agents use: which artefact an agent needs, and getting it.
+
+An agent bound to an environment needs networks trained on that environment's θ_0
+(:class:`Needed`: the artefact request and how to train it). :func:`obtain` loads it from the
+cache, training it first (under the key's lock) if it is missing. Training imports torch
+(the ``learn`` extra); loading does not.
+"""
+
+from __future__ import annotations
+
+import importlib
+import multiprocessing
+import time
+from collections.abc import Callable, Mapping
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from ns_pz.agents.learning.artefacts import ArtefactRequest, exists, load_or_train
+from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
+from ns_pz.agents.learning.features import feature_size
+
+from ns_pz import __version__
+from ns_pz.views import NSGymEnv
+
+#: Bump a learner's number when its training changes what it produces.
+CODE_VERSIONS = {"ddqn": "1", "alphazero": "1"}
+
+
+@dataclass(frozen=True)
+class Needed:
+    """An artefact an agent needs: its request and what training it takes.
+
+    Picklable, so a pool of processes can train several at once.
+
+    Attributes:
+        request: The artefact's identity (its key).
+        env: An environment of the family at the θ_0 to train on (its nature is not used).
+        args: The learner's settings, family defaults filled in.
+        label: One line for progress messages.
+    """
+
+    request: ArtefactRequest
+    env: NSGymEnv
+    args: DDQNArgs | AlphaZeroArgs
+    label: str
+
+    def train(self) -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
+        """Train the network now (imports torch): ``(weights, info)``."""
+        env = training_env(self.env, self.args.max_episode_steps)
+        if isinstance(self.args, DDQNArgs):
+            return torch_module("ddqn").train_ddqn(env, self.args, self.args.seed)
+        return torch_module("alphazero").train_alphazero(env, self.args, self.args.seed)
+
+
+def training_env(env: NSGymEnv, max_episode_steps: int) -> NSGymEnv:
+    """A stationary copy of ``env``'s family at its θ_0 (no nature), for training."""
+    return NSGymEnv(env.family, params=env.base_params, max_episode_steps=max_episode_steps)
+
+
+#: Fields that only matter when acting, so they are not part of an artefact's key.
+DECISION_ONLY = frozenset({"search_iterations"})
+
+
+def _request(learner: str, env: NSGymEnv, args: Any) -> ArtefactRequest:
+    if not isinstance(env.action_space, spaces.Discrete):
+        raise TypeError(f"{learner} needs a Discrete action space; {env!r} has {env.action_space}")
+    feature_size(env.family.observation_space)  # a TypeError for spaces a network cannot take
+    training_args = {k: v for k, v in asdict(args).items() if k not in DECISION_ONLY}
+    return ArtefactRequest(
+        learner=learner,
+        family=repr(env.family),
+        theta0=env.base_params.as_dict(),
+        args=training_args,
+        seed=args.seed,
+        code_version=f"{__version__}/{learner}-{CODE_VERSIONS[learner]}",
+    )
+
+
+def torch_module(name: str) -> Any:
+    """``ns_pz.agents.learning.<name>``, a module that imports torch.
+
+    Raises:
+        ImportError: torch is not installed (the message says how to install it).
+    """
+    try:
+        return importlib.import_module(f"ns_pz.agents.learning.{name}")
+    except ImportError as error:
+        raise ImportError(
+            f"training needs torch ({error}); on a CPU-only machine: "
+            "pip install torch==2.13.0 && pip install 'ns_pz[learn]'"
+        ) from None
+
+
+def ddqn_needed(env: NSGymEnv, args: DDQNArgs) -> Needed:
+    """The Double-DQN Q-network trained on ``env``'s θ_0 with ``args`` (widths resolved)."""
+    args = args.for_family(env.family)
+    label = f"DDQN {env.family!r} θ0={_theta_text(env)} {args.total_steps} steps"
+    return Needed(_request("ddqn", env, args), env, args, label)
+
+
+def alphazero_needed(env: NSGymEnv, args: AlphaZeroArgs) -> Needed:
+    """The AlphaZero policy/value network trained by self-play on ``env``'s θ_0."""
+    args = args.for_family(env.family)
+    label = f"AlphaZero {env.family!r} θ0={_theta_text(env)} {args.episodes} episodes"
+    return Needed(_request("alphazero", env, args), env, args, label)
+
+
+def _theta_text(env: NSGymEnv) -> str:
+    def short(value: Any) -> Any:
+        return [round(v, 4) for v in value] if isinstance(value, tuple) else value
+
+    return str({name: short(value) for name, value in env.base_params.as_dict().items()})
+
+
+def obtain(needed: Needed, root: Path | None = None) -> dict[str, np.ndarray]:
+    """The weights of ``needed``, trained now (once across processes) if not cached."""
+    weights, _ = load_or_train(needed.request, needed.train, root)
+    return weights
+
+
+def prepare(
+    needs: list[Needed],
+    root: Path | None = None,
+    report: Callable[[Needed, float, bool], None] | None = None,
+    workers: int = 1,
+) -> float:
+    """Make sure every artefact in ``needs`` is cached (each distinct key trained once).
+
+    Args:
+        needs: Artefacts, possibly repeated.
+        root: The cache folder (default: the user cache).
+        report: Called per distinct artefact with its seconds and whether it was trained.
+        workers: Processes training distinct artefacts at once (1: here, one after another).
+
+    Returns:
+        Seconds spent training, summed over artefacts (CPU time of one core each).
+    """
+    distinct = list({need.request.key: need for need in needs}.values())
+    if workers > 1 and sum(not exists(n.request, root) for n in distinct) > 1:
+        context = multiprocessing.get_context("spawn")
+        with ProcessPoolExecutor(min(workers, len(distinct)), mp_context=context) as pool:
+            results = list(pool.map(_prepare_one, distinct, [root] * len(distinct)))
+    else:
+        results = [_prepare_one(need, root) for need in distinct]
+    spent = 0.0
+    for need, (seconds, trained) in zip(distinct, results, strict=True):
+        spent += seconds if trained else 0.0
+        if report is not None:
+            report(need, seconds, trained)
+    return spent
+
+
+def _prepare_one(need: Needed, root: Path | None) -> tuple[float, bool]:
+    start = time.perf_counter()
+    _, trained = load_or_train(need.request, need.train, root)
+    return time.perf_counter() - start, trained

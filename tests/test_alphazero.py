@@ -1,0 +1,253 @@
+"""AlphaZero: PUCT against a hand-worked tree, the loss, and learning on θ_0."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+from ns_pz.agents import evaluate
+from ns_pz.agents.baselines import RandomAgent
+from ns_pz.agents.catalog import agent_entry
+from ns_pz.agents.learning.config import AlphaZeroArgs
+from ns_pz.agents.learning.puct import PUCTSettings, puct, puct_tree
+
+import ns_pz
+
+FROZEN_LAKE = {"slip": [0.7, 0.15, 0.15]}
+
+
+class ToyModel:
+    """Deterministic toy model.
+
+    0 -a0-> 1 (r 1); 0 -a1-> 2 (r 0, end); 1 -a0-> 3 (r 0); 1 -a1-> 4 (r 3, end).
+    """
+
+    action_space = spaces.Discrete(2)
+    EDGES = {
+        (0, 0): (1, 1.0, False),
+        (0, 1): (2, 0.0, True),
+        (1, 0): (3, 0.0, False),
+        (1, 1): (4, 3.0, True),
+        (3, 0): (3, 0.0, False),
+        (3, 1): (3, 0.0, False),
+    }
+
+    def transition(self, state, action):
+        """The one outcome of (state, action)."""
+        return self.EDGES[(state, action)]
+
+
+VALUES = {0: 0.0, 1: 2.0, 3: -4.0}
+
+
+def _evaluate(state):
+    return np.array([0.6, 0.4]), VALUES[state]
+
+
+def _toy_tree(**settings):
+    """PUCT on the toy model with γ = 0.5 and ``settings``."""
+    puct_settings = PUCTSettings(gamma=0.5, **settings)
+    return puct_tree(ToyModel(), 0, np.random.default_rng(0), _evaluate, puct_settings)
+
+
+def test_puct_matches_a_hand_worked_tree():
+    """C = 1, γ = 0.5, priors (0.6, 0.4), four simulations, worked out by hand.
+
+    1. root: scores (0.6, 0.4) -> a0; new node 1 (v = 2); G = 1 + 0.5*2 = 2.   Q0 = 2
+    2. root: (2 + 0.6√2/2, 0 + 0.4√2) -> a0; node 1: (2.6, 2.4) -> a0; new node 3 (v = -4);
+       node 1: G = 0 + 0.5*(-4) = -2; root: G = 1 + 0.5*(-2) = 0.                  Q0 = 1
+    3. root: (1 + 0.6√3/3, 0.4√3) -> a0; node 1: (-2 + 0.6√2/2, 2 + 0.4√2) -> a1; new
+       terminal node 4 (value 0); node 1: G = 3; root: G = 1 + 1.5 = 2.5.           Q0 = 1.5
+    4. root: (1.5 + 0.3, 0.8) -> a0; node 1: (-2 + 0.6√3/2, 3 + 0.4√3/2) -> a1; node 4 is
+       terminal: leaf 0; node 1: G = 3; root: G = 2.5.                             Q0 = 1.75
+    """
+    tree = _toy_tree(iterations=4, depth=5, c=1.0)
+    np.testing.assert_array_equal(tree.visits, [4, 0])
+    np.testing.assert_allclose(tree.q, [1.75, 0.0])
+    assert (tree.num_nodes, tree.simulated_steps) == (4, 7)
+    assert tree.value_target() == pytest.approx(1.75)
+    np.testing.assert_allclose(tree.policy_target(1.0), [1.0, 0.0])
+
+
+def test_normalised_q_matches_a_hand_worked_tree():
+    """The same tree with Q min-max scaled by the values backed up so far (MuZero's rule).
+
+    1. no bounds yet: as before, a0, Q0 = 2; bounds [2, 2] (equal: no scaling).
+    2. a0, a0 as before; new node 3; node 1 Q = -2, root Q0 = 1; bounds [-2, 2].
+    3. root: scaled Q (0.75, 0.5): (0.75 + 0.6√3/3, 0.5 + 0.4√3) -> a1; terminal node 2;
+       root Q1 = 0.
+    4. root: (0.75 + 0.6·2/4, 0.5 + 0.4·2/2) -> a0; node 1: scaled (0, 1) -> a1: terminal
+       node 4, node 1 Q1 = 3; root G = 2.5, Q0 = 4.5 / 3 = 1.5.
+    """
+    tree = _toy_tree(iterations=4, depth=5, c=1.0, normalise_q=True)
+    np.testing.assert_array_equal(tree.visits, [3, 1])
+    np.testing.assert_allclose(tree.q, [1.5, 0.0])
+    assert (tree.num_nodes, tree.simulated_steps) == (5, 6)
+
+
+def test_puct_depth_limit_takes_the_node_value():
+    """With depth 0 a simulation stops at the first existing node and backs up its value."""
+    tree = _toy_tree(iterations=3, depth=0, c=1.0)
+    np.testing.assert_array_equal(tree.visits, [3, 0])
+    np.testing.assert_allclose(tree.q, [2.0, 0.0])
+    assert (tree.num_nodes, tree.simulated_steps) == (2, 3)
+
+
+def test_policy_target_temperature():
+    """Policy target temperature."""
+    tree = _toy_tree(iterations=4, depth=5, c=10.0)
+    visits = tree.visits.astype(float)
+    np.testing.assert_allclose(tree.policy_target(1.0), visits / visits.sum())
+    squared = visits**2 / (visits**2).sum()
+    np.testing.assert_allclose(tree.policy_target(0.5), squared)
+
+
+def test_root_noise_comes_from_the_search_generator():
+    """Root noise comes from the search generator."""
+    settings = PUCTSettings(20, 5, 1.0, 0.5, dirichlet_alpha=0.3, noise=0.75)
+    first = puct(ToyModel(), 0, np.random.default_rng(1), _evaluate, settings)
+    again = puct(ToyModel(), 0, np.random.default_rng(1), _evaluate, settings)
+    np.testing.assert_array_equal(first.visits, again.visits)
+
+
+torch = pytest.importorskip("torch")
+from ns_pz.agents.learning.alphazero import alphazero_loss  # noqa: E402
+
+
+def test_loss_is_cross_entropy_on_logits_plus_value_mse():
+    """D loss / d logits = softmax(logits) - π per row (/ batch): no double softmax."""
+    logits = torch.tensor([[2.0, 0.0, -1.0], [0.5, 0.5, 3.0]], requires_grad=True)
+    values = torch.tensor([0.5, -1.0], requires_grad=True)
+    pi = torch.tensor([[0.2, 0.5, 0.3], [1.0, 0.0, 0.0]])
+    z = torch.tensor([1.0, 1.0])
+    loss = alphazero_loss(logits, values, pi, z)
+    expected = ((0.5**2 + 2.0**2) / 2) - (pi * torch.log_softmax(logits, 1)).sum(1).mean()
+    torch.testing.assert_close(loss, expected)
+    loss.backward()
+    torch.testing.assert_close(logits.grad, (torch.softmax(logits.detach(), 1) - pi) / 2)
+
+
+@pytest.fixture
+def _tmp_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path))
+
+
+@pytest.mark.usefixtures("_tmp_cache")
+def test_alphazero_learns_frozen_lake_at_theta0():
+    """40 self-play episodes (seconds): PUCT with the trained net far above random on θ_0."""
+
+    def make():
+        return ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE, max_episode_steps=100)
+
+    agent = agent_entry("alphazero").make(make(), {"episodes": 40, "iterations": 50})
+    learned = np.mean([e.episode_return for e in evaluate(make, agent, range(30))])
+    random = np.mean(
+        [e.episode_return for e in evaluate(make, RandomAgent(make().action_space), range(30))]
+    )
+    assert random < 0.1 and learned > 0.4
+
+
+def test_bad_args_are_refused():
+    """Bad args are refused."""
+    with pytest.raises(ValueError, match="value_target='mc' is not allowed"):
+        AlphaZeroArgs(value_target="mc")
+    with pytest.raises(ValueError, match="episodes=0 must be >= 1"):
+        AlphaZeroArgs(episodes=0)
+
+
+def _random_function(space, seed):
+    """A fixed random policy/value network over ``space``."""
+    from ns_pz.agents.learning.puct import PolicyValueFunction
+
+    rng = np.random.default_rng(seed)
+    n = int(space.n)
+    weights = {
+        "trunk.0.weight": rng.normal(size=(16, n)),
+        "trunk.0.bias": rng.normal(size=16),
+        "policy.0.weight": rng.normal(size=(4, 16)),
+        "policy.0.bias": rng.normal(size=4),
+        "value.0.weight": rng.normal(size=(1, 16)),
+        "value.0.bias": rng.normal(size=1),
+    }
+    return PolicyValueFunction(weights, space)
+
+
+@pytest.mark.parametrize("normalise_q", [False, True])
+@pytest.mark.parametrize(
+    ("env_id", "slip", "noise"),
+    [
+        ("ns_pz/FrozenLake-v0", [0.7, 0.15, 0.15], 0.0),
+        ("ns_pz/CliffWalking-v0", [0.6, 0.2, 0.1, 0.1], 0.75),
+        ("ns_pz/Bridge-v0", [0.7, 0.15, 0.15], 0.0),
+    ],
+)
+def test_compiled_puct_builds_the_python_tree(env_id, slip, noise, normalise_q):
+    """Same generators, same tree: compiled and Python PUCT agree on every root statistic."""
+    import copy
+
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import TabularEvaluation, model_evaluation
+
+    env = ns_pz.make_gym(env_id, params={"slip": slip})
+    env.reset(seed=3)
+    function = _random_function(env.family.observation_space, 3)
+    settings = PUCTSettings(
+        60, 10, 1.3, 0.95, dirichlet_alpha=0.5, noise=noise, normalise_q=normalise_q
+    )
+    for seed in range(3):
+        model = env.planning_model()
+        twin = copy.deepcopy(model)
+        evaluate = model_evaluation(function, model)
+        assert isinstance(evaluate, TabularEvaluation)
+        state = model.get_state()
+        python = puct_tree(model, state, np.random.default_rng(seed), evaluate, settings, "python")
+        compiled = puct_tree(
+            twin, state, np.random.default_rng(seed), evaluate, settings, "compiled"
+        )
+        np.testing.assert_array_equal(compiled.visits, python.visits)
+        np.testing.assert_array_equal(compiled.q, python.q)
+        assert (compiled.num_nodes, compiled.simulated_steps) == (
+            python.num_nodes,
+            python.simulated_steps,
+        )
+        _, _, terminated, truncated, _ = env.step(int(np.argmax(python.visits)))
+        if terminated or truncated:
+            env.reset(seed=seed)
+
+
+def test_compiled_puct_refuses_continuous_models():
+    """CartPole has no tabulated network: backend='compiled' says why."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import model_evaluation
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    function = _random_cartpole_function()
+    with pytest.raises(ValueError, match="compiled PUCT needs a tabular model"):
+        puct_tree(
+            model,
+            model.get_state(),
+            np.random.default_rng(0),
+            model_evaluation(function, model),
+            PUCTSettings(5, 5, 1.0, 1.0),
+            "compiled",
+        )
+
+
+def _random_cartpole_function():
+    """A random policy/value network over CartPole's 4 floats."""
+    from ns_pz.agents.learning.puct import PolicyValueFunction
+
+    rng = np.random.default_rng(0)
+    weights = {
+        "trunk.0.weight": rng.normal(size=(8, 4)),
+        "trunk.0.bias": rng.normal(size=8),
+        "policy.0.weight": rng.normal(size=(2, 8)),
+        "policy.0.bias": rng.normal(size=2),
+        "value.0.weight": rng.normal(size=(1, 8)),
+        "value.0.bias": rng.normal(size=1),
+    }
+    return PolicyValueFunction(
+        weights, ns_pz.make_gym("ns_pz/CartPole-v0").family.observation_space
+    )

@@ -1,0 +1,116 @@
+"""Learning agents in specs: checked without training, trained once by the runner, estimated."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+from ns_pz.agents.learning.artefacts import cache_dir
+
+from ns_pz.experiments import SpecError, load_spec, run_spec
+from ns_pz.experiments.backends import LocalBackend
+from ns_pz.experiments.runner import train_artefacts
+from ns_pz.experiments.trials import expand
+
+pytest.importorskip("torch")
+
+SPEC = """
+version = 1
+name = "learners"
+title = "tiny FrozenLake with learners"
+env = "ns_pz/FrozenLake-v0"
+params = { slip = 1.0 }
+notifications = ["detailed", "none"]
+
+[change]
+kind = "single"
+param = "slip"
+first_step = 1
+to = [0.8]
+
+[sizes.quick]
+episodes = 2
+horizon = 20
+
+[sizes.full]
+episodes = 2
+horizon = 20
+
+[[agents]]
+name = "ddqn"
+label = "DDQN"
+params = { total_steps = 1500, learning_starts = 100 }
+
+[[agents]]
+name = "pamcts"
+label = "PA"
+params = { alpha = 0.5, iterations = 20, depth = 10 }
+quick = { ddqn = { total_steps = 1500, learning_starts = 100 } }
+full = { ddqn = { total_steps = 1500, learning_starts = 100 } }
+
+[[agents]]
+name = "alphazero"
+label = "AZ"
+params = { episodes = 2, iterations = 8, max_episode_steps = 20 }
+"""
+
+
+@pytest.fixture(autouse=True)
+def _tmp_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def _spec(tmp_path, text=SPEC):
+    path = tmp_path / "learners.toml"
+    path.write_text(text)
+    return load_spec(path, "quick")
+
+
+def test_loading_a_spec_trains_nothing(tmp_path):
+    """Spec checks validate the learners' settings without acting (acting would train)."""
+    _spec(tmp_path)
+    assert not cache_dir().exists()
+
+
+def test_bad_learner_settings_fail_at_load(tmp_path):
+    """A learner's hyper-parameter out of range is refused with the spec's field."""
+    bad = SPEC.replace(
+        'total_steps = 1500, learning_starts = 100 }\n\n[[agents]]\nname = "pamcts"',
+        'total_steps = 0 }\n\n[[agents]]\nname = "pamcts"',
+    )
+    with pytest.raises(SpecError, match="total_steps=0 must be >= 1"):
+        _spec(tmp_path, bad)
+
+
+def test_runner_trains_each_network_once_before_the_workers(tmp_path):
+    """DDQN and PA-MCTS share one Q-network; with two workers each network is trained once."""
+    spec = _spec(tmp_path)
+    progress = io.StringIO()
+    summary = run_spec(spec, tmp_path / "out", LocalBackend(2), progress=progress)
+    assert summary.failed == 0 and summary.ran == len(expand(spec))
+    log = progress.getvalue()
+    assert log.count("trained DDQN") == 1 and log.count("trained AlphaZero") == 1
+    assert len(list((cache_dir() / "ddqn").glob("*/manifest.json"))) == 1
+    assert len(list((cache_dir() / "alphazero").glob("*/manifest.json"))) == 1
+    again = train_artefacts(spec, expand(spec))
+    assert [cost.trained_now for cost in again] == [False, False]
+    assert all(cost.seconds > 0 for cost in again)  # the recorded training time
+
+
+def test_train_command_builds_then_finds_the_networks(tmp_path):
+    """``ns-pz train`` trains the spec's two networks, and a second call finds them cached."""
+    from ns_pz.cli import main
+
+    path = tmp_path / "learners.toml"
+    path.write_text(SPEC)
+    lines: list[str] = []
+    assert main(["train", str(path), "--workers", "1"], lines.append) == 0
+    assert sum("trained now" in line for line in lines) == 2
+    lines.clear()
+    assert main(["train", str(path)], lines.append) == 0
+    assert sum("cached" in line for line in lines) == 2
+    lines.clear()
+    argv = ["bench", "estimate", str(path), "--samples", "1", "--workers", "2"]
+    assert main(argv, lines.append) == 0
+    assert sum(line.startswith("training: ") for line in lines) == 2  # shared ones once
+    assert "of which training" in lines[-1]
