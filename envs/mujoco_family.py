@@ -161,7 +161,7 @@ class MujocoFamily(EnvFamily):
         self._values: tuple[float, ...] = self._as_tuple(self._theta)
         carried = tuple((field, getattr(data, field).shape) for field in self.carried)
         self.layout = StateLayout(
-            mujoco.mj_stateSize(model, _INTEGRATION), carried, self.observation_space.shape[0]
+            mujoco.mj_stateSize(model, _INTEGRATION), carried, self._env.observation_space.shape[0]
         )
         self._buffer = np.empty(self.layout.integration)
         self._carried_views = [getattr(data, field) for field in self.carried]

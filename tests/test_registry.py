@@ -70,10 +70,11 @@ def test_module_prefixed_id_imports_ns_pz_by_itself(tmp_path):
 
 
 def test_import_loads_no_torch_and_no_compiler(tmp_path):
-    """Import ns_pz stays light: no torch, numba, jax, scipy, SB3, Ray or pygame."""
+    """Import ns_pz stays light: no torch, numba, jax, scipy, SB3, Ray, pygame or MuJoCo."""
     code = (
         "import sys, ns_pz, ns_pz.nature, ns_pz.monitor, ns_pz.seats;"
-        " heavy = ('torch', 'numba', 'jax', 'scipy', 'stable_baselines3', 'ray', 'pygame');"
+        " heavy = ('torch', 'numba', 'jax', 'scipy', 'stable_baselines3', 'ray', 'pygame',"
+        " 'mujoco');"
         " print([m for m in heavy if m in sys.modules])"
     )
     out = run_python(code, tmp_path)
