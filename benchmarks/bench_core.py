@@ -1,7 +1,8 @@
 """Cost of the NS-MDP core relative to the raw Gymnasium step, measured in one run.
 
 For each environment of :data:`ENVS` (CartPole, FrozenLake, CliffWalking, Bridge, MountainCar,
-MountainCarContinuous, Acrobot, Pendulum; ``--envs`` picks some) it times, per transition:
+MountainCarContinuous, Acrobot, Pendulum; ``--envs`` picks some) and, with ``--mujoco``, for the
+MuJoCo tasks of :data:`MUJOCO_ENVS` (a body mass moved at every step), it times, per transition:
 
 * ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x). Gymnasium has no
   Bridge: its reference is NS-Gym's base Bridge env (``ns_gym/Bridge-v0``, unwrapped) when NS-Gym
@@ -146,11 +147,27 @@ ENVS = {
     "Acrobot": Bench("Acrobot-v1", "ns_pz/Acrobot-v0", "link_mass_2", nsgym_param="LINK_MASS_2"),
     "Pendulum": Bench("Pendulum-v1", "ns_pz/Pendulum-v0", "mass", nsgym_param="m"),
 }
+MUJOCO_ENVS = {  # timed with --mujoco (needs the mujoco extra); nature moves a mass every step
+    name: Bench(f"{name}-v5", f"ns_pz/{name}-v0", param, k=1e-6)
+    for name, param in (
+        ("InvertedPendulum", "pole_mass"),
+        ("InvertedDoublePendulum", "pole2_mass"),
+        ("Reacher", "body1_mass"),
+        ("Swimmer", "body_mid_mass"),
+        ("Pusher", "r_forearm_link_mass"),
+        ("Hopper", "torso_mass"),
+        ("Walker2d", "torso_mass"),
+        ("HalfCheetah", "torso_mass"),
+        ("Ant", "torso_mass"),
+        ("Humanoid", "torso_mass"),
+        ("HumanoidStandup", "torso_mass"),
+    )
+}
 
 
 def cases(name: str) -> dict[str, Runner]:
     """Every timed variant for one environment of :data:`ENVS`."""
-    bench = ENVS[name]
+    bench = ENVS.get(name) or MUJOCO_ENVS[name]
     base_id, ns_id, param = bench.base_id, bench.ns_id, bench.param
 
     def rule(scheduler):  # noqa: ANN001, ANN202
@@ -174,7 +191,7 @@ def cases(name: str) -> dict[str, Runner]:
         "AEC cycle, change every step": lambda a: time_game(game, a, 0, observe=False),
         "AEC cycle + observe, every step": lambda a: time_game(game, a, 0, observe=True),
     }
-    if ng_wrappers is not None:
+    if ng_wrappers is not None and name in ENVS:
         runners.update(nsgym_cases(name))
     return runners
 
@@ -218,12 +235,13 @@ def random_actions(space: gym.Space, steps: int) -> list:
 def measure(name: str, steps: int, rounds: int) -> None:
     """Print µs per step and the median ratio to ``raw`` for every case of one env."""
     runners = cases(name)
-    actions = random_actions(gym.make(ENVS[name].ns_id).unwrapped.family.action_space, steps)
+    bench = ENVS.get(name) or MUJOCO_ENVS[name]
+    actions = random_actions(gym.make(bench.ns_id).unwrapped.family.action_space, steps)
     seconds: dict[str, list[float]] = {case: [] for case in runners}
     for _ in range(rounds):
         for case, run in runners.items():
             seconds[case].append(run(actions))
-    reference = "" if ENVS[name].base_id in gym.registry else " [raw = ns_pz, static]"
+    reference = "" if bench.base_id in gym.registry else " [raw = ns_pz, static]"
     print(f"\n{name}: {steps} steps x {rounds} rounds (median){reference}")
     print(f"  {'case':36s} {'us/step':>9s} {'x raw':>7s}")
     for case, times in seconds.items():
@@ -233,7 +251,7 @@ def measure(name: str, steps: int, rounds: int) -> None:
 
 def measure_planning(name: str, repeats: int) -> None:
     """Planning model save + restore and get_planning_env(), in µs."""
-    ns_id = "ns_pz/CartPole-v0" if name == "CartPole" else "ns_pz/FrozenLake-v0"
+    ns_id = f"ns_pz/{name}-v0"
     env = gym.make(ns_id, notification="detailed").unwrapped
     env.reset(seed=0)
     model = env.planning_model()
@@ -253,6 +271,8 @@ def measure_planning(name: str, repeats: int) -> None:
         f" get_planning_env(): {copy_env * 1e6:.1f} us"
     )
     if ng_wrappers is not None:
+        if name not in ("CartPole", "FrozenLake"):
+            return
         if name == "CartPole":
             update = ng_updates.IncrementUpdate(ng_schedulers.ContinuousScheduler(), k=1e-4)
             ng = ng_wrappers.NSClassicControlWrapper(
@@ -296,6 +316,12 @@ def main() -> None:
     parser.add_argument(
         "--envs", nargs="+", choices=sorted(ENVS), default=list(ENVS), help="environments to time"
     )
+    parser.add_argument(
+        "--mujoco",
+        nargs="*",
+        choices=sorted(MUJOCO_ENVS),
+        help="also time these MuJoCo tasks (no name: all), at a tenth of --steps",
+    )
     args = parser.parse_args()
     steps, rounds = (300, 2) if args.smoke else (args.steps, args.rounds)
     print(
@@ -304,8 +330,11 @@ def main() -> None:
     )
     for name in args.envs:
         measure(name, steps, rounds)
+    mujoco_tasks = [] if args.mujoco is None else args.mujoco or list(MUJOCO_ENVS)
+    for name in mujoco_tasks:
+        measure(name, max(steps // 10, 100), rounds)
     print("\nPlanning")
-    for name in ("CartPole", "FrozenLake"):
+    for name in ("CartPole", "FrozenLake", *mujoco_tasks[:1]):
         measure_planning(name, 1000 if args.smoke else 100_000)
 
 

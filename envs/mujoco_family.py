@@ -174,10 +174,15 @@ class MujocoFamily(EnvFamily):
     def apply(self, theta: Params) -> None:
         """Write ``theta`` into the model (the fields that differ), then fix derived constants.
 
-        Leaves ``MjData``'s integration state as it was; :meth:`step` calls it by itself.
+        Leaves ``MjData``'s integration state as it was (:meth:`step` does this by itself).
         """
-        if theta is self._theta:
-            return
+        if theta is not self._theta:
+            mujoco.mj_getState(self._model, self._data, self._buffer, _INTEGRATION)
+            self._write(theta)
+            mujoco.mj_setState(self._model, self._data, self._buffer, _INTEGRATION)
+
+    def _write(self, theta: Params) -> None:
+        """Write ``theta`` into the model; ``mj_setConst`` (which moves ``MjData``) for masses."""
         values = self._as_tuple(theta)
         masses = False
         for index, (value, old) in enumerate(zip(values, self._values, strict=True)):
@@ -186,9 +191,7 @@ class MujocoFamily(EnvFamily):
                 array[position] = value
                 masses = masses or self._is_mass[index]
         if masses:
-            mujoco.mj_getState(self._model, self._data, self._buffer, _INTEGRATION)
             mujoco.mj_setConst(self._model, self._data)
-            mujoco.mj_setState(self._model, self._data, self._buffer, _INTEGRATION)
         self._theta, self._values = theta, values
 
     def initial_state(self, rng: np.random.Generator) -> bytes:
@@ -200,7 +203,8 @@ class MujocoFamily(EnvFamily):
 
         θ matters where the first observation reads inertias (Humanoid's ``cinert``).
         """
-        self.apply(theta)
+        if theta is not self._theta:
+            self._write(theta)  # mj_resetData below resets what mj_setConst moved
         env = self._env
         env.np_random = rng
         mujoco.mj_resetData(self._model, self._data)
@@ -232,14 +236,22 @@ class MujocoFamily(EnvFamily):
         Raises:
             ValueError: Not numeric, of another shape, or not finite.
         """
-        return check_box_action(self.action_space, action)  # type: ignore[arg-type]
+        space = self.action_space
+        if (  # the common case, checked cheaply
+            type(action) is np.ndarray
+            and action.dtype == space.dtype
+            and action.shape == space.shape
+            and np.isfinite(action).all()
+        ):
+            return action
+        return check_box_action(space, action)  # type: ignore[arg-type]
 
     def step(
         self, state: bytes, action: Any, theta: Params, rng: np.random.Generator
     ) -> tuple[bytes, float, bool]:
         """One Gymnasium step (``frame_skip`` MuJoCo steps) from ``state`` under ``theta``."""
         if theta is not self._theta:
-            self.apply(theta)
+            self._write(theta)  # load() below restores what mj_setConst moved
         self.load(state)
         observation, reward, terminated, _, _ = self._env.step(action)
         return self._pack(observation), float(reward), bool(terminated)
