@@ -20,8 +20,12 @@ from ns_pz.envs.mujoco_family import (
     MujocoFamily,
     params_class,
 )
+from ns_pz.envs.registry import MUJOCO_TASKS
 
 _GYM = "gymnasium.envs.mujoco."
+
+TASKS = tuple(name for name, _, _ in MUJOCO_TASKS)
+"""The task names; the family of ``name`` is ``{name}Family``, its θ ``{name}Params``."""
 
 _INVERTEDPENDULUM_KNOBS = (
     Knob("gravity", GRAVITY, "", -9.81),

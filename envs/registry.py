@@ -174,7 +174,7 @@ def _register_mujoco() -> None:
     """The MuJoCo tasks, when the ``mujoco`` extra is installed (found, not imported)."""
     if importlib.util.find_spec("mujoco") is None:
         return
-    for name, limit, theta in _MUJOCO_TASKS:
+    for name, limit, theta in MUJOCO_TASKS:
         # Gymnasium's {name}-v5 with NS-Gym's knobs as θ.
         register(
             f"ns_pz/{name}-v0",
@@ -267,7 +267,7 @@ register(
     description="Bridge 5x8; θ: slip_left (columns 0-3), slip_right (columns 4-7)",
 )
 # Gymnasium's v5 MuJoCo tasks (name, time limit, θ), registered only with the mujoco extra.
-_MUJOCO_TASKS = (
+MUJOCO_TASKS: tuple[tuple[str, int, str], ...] = (
     ("InvertedPendulum", 1000, "gravity, pole_mass, cart_mass, rail_friction"),
     ("InvertedDoublePendulum", 1000, "gravity, cart/pole1/pole2 masses, rail friction, damping"),
     ("Reacher", 50, "body0/body1 masses, joint0/joint1 damping"),

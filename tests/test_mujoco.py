@@ -16,19 +16,7 @@ from ns_pz.envs.mujoco_family import DAMPING, FRICTION, GRAVITY, MASS, MujocoFam
 
 import ns_pz  # noqa: E402
 
-TASKS = (
-    "InvertedPendulum",
-    "InvertedDoublePendulum",
-    "Reacher",
-    "Swimmer",
-    "Pusher",
-    "Hopper",
-    "Walker2d",
-    "HalfCheetah",
-    "Ant",
-    "Humanoid",
-    "HumanoidStandup",
-)
+TASKS = mujoco_tasks.TASKS
 INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
@@ -258,3 +246,67 @@ def test_gymnasium_make_builds_the_view():
     observation, _ = env.reset(seed=0)
     assert observation["state"].shape == (4,)
     assert env.spec.max_episode_steps == 1000
+
+
+# -- ns_pz.compat's MujocoWrapper ----------------------------------------------------------------
+def test_mujoco_wrapper_runs_nsgym_code():
+    """NS-Gym's constructor and names: a drifting torso mass, notified with its size."""
+    from ns_pz.compat.base import TUNABLE_PARAMS
+    from ns_pz.compat.schedulers import ContinuousScheduler
+    from ns_pz.compat.update_functions import IncrementUpdate
+    from ns_pz.compat.wrappers import MujocoWrapper
+
+    update = IncrementUpdate(ContinuousScheduler(), k=0.5)
+    wrapper = MujocoWrapper(
+        gym.make("HalfCheetah-v5"),
+        {"torso_mass": update},
+        change_notification=True,
+        delta_change_notification=True,
+    )
+    wrapper.reset(seed=0)
+    observation, _, _, _, info = wrapper.step(np.zeros(6, dtype=np.float32))
+    assert observation["env_change"] == {"torso_mass": 1}
+    assert observation["delta_change"]["torso_mass"] == pytest.approx(0.5)
+    default = mujoco_tasks.HalfCheetahParams().torso_mass
+    assert wrapper.get_params()["torso_mass"] == pytest.approx(default + 0.5)
+    assert TUNABLE_PARAMS["HalfCheetahEnv"]["torso_mass"] == default
+    assert wrapper.get_planning_env().get_params()["torso_mass"] == pytest.approx(default + 0.5)
+
+
+def test_mujoco_wrapper_reads_theta0_from_the_model_and_steps_as_gymnasium():
+    """A mass set on the model before wrapping is θ_0; without changes, Gymnasium's trajectory."""
+    from ns_pz.compat.wrappers import MujocoWrapper
+
+    env = gym.make("Hopper-v5")
+    model = env.unwrapped.model
+    model.body_mass[model.body("torso").id] = 5.0
+    mujoco.mj_setConst(model, env.unwrapped.data)
+    wrapper = MujocoWrapper(env, {})
+    observation, _ = wrapper.reset(seed=1)
+    assert wrapper.get_params()["torso_mass"] == 5.0
+    reference = gym.make("Hopper-v5").unwrapped
+    reference.model.body_mass[reference.model.body("torso").id] = 5.0
+    mujoco.mj_setConst(reference.model, reference.data)
+    np.testing.assert_array_equal(reference.reset(seed=1)[0], observation["state"])
+    for action in actions(family_of("Hopper"), 30):
+        expected, reward, terminated, _, _ = reference.step(action)
+        observation, our_reward, our_terminated, _, _ = wrapper.step(action)
+        np.testing.assert_array_equal(observation["state"], expected)
+        assert (our_reward, our_terminated) == (reward, terminated)
+        if terminated:
+            break
+
+
+def test_mujoco_wrapper_refuses_what_it_cannot_run():
+    """An unknown parameter, a non-MuJoCo env, a changed task setting: ValueError naming it."""
+    from ns_pz.compat.schedulers import ContinuousScheduler
+    from ns_pz.compat.update_functions import IncrementUpdate
+    from ns_pz.compat.wrappers import MujocoWrapper
+
+    update = IncrementUpdate(ContinuousScheduler(), k=0.1)
+    with pytest.raises(ValueError, match="'leg_mass', which AntEnv does not have"):
+        MujocoWrapper(gym.make("Ant-v5"), {"leg_mass": update})
+    with pytest.raises(ValueError, match="got an env of class CartPoleEnv"):
+        MujocoWrapper(gym.make("CartPole-v1"), {})
+    with pytest.raises(ValueError, match="ctrl_cost_weight"):
+        MujocoWrapper(gym.make("HalfCheetah-v5", ctrl_cost_weight=0.5), {})
