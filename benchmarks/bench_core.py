@@ -2,7 +2,8 @@
 
 For each environment of :data:`ENVS` (CartPole, FrozenLake, CliffWalking, Bridge, MountainCar,
 MountainCarContinuous, Acrobot, Pendulum; ``--envs`` picks some) and, with ``--mujoco``, for the
-MuJoCo tasks of :data:`MUJOCO_ENVS` (a body mass moved at every step), it times, per transition:
+MuJoCo tasks of :data:`MUJOCO_ENVS` (gravity or a damping moved at every step, and a body mass
+in an extra case), it times, per transition:
 
 * ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x). Gymnasium has no
   Bridge: its reference is NS-Gym's base Bridge env (``ns_gym/Bridge-v0``, unwrapped) when NS-Gym
@@ -49,6 +50,10 @@ try:  # NS-Gym, for a side-by-side measurement when it is installed
     import ns_gym.wrappers as ng_wrappers
 except ImportError:
     ng_wrappers = None
+try:  # the MuJoCo tasks (--mujoco), with the mujoco extra
+    import mujoco
+except ImportError:
+    mujoco = None
 
 Runner = Callable[[list], float]
 SLIP = (1 / 3, 1 / 3, 1 / 3)
@@ -125,6 +130,8 @@ class Bench:
     """The Gymnasium attribute NS-Gym's wrapper sets (scalar θ)."""
     slip: tuple[float, ...] | None = None
     """NS-Gym's initial slip vector (grid worlds)."""
+    mass: str = ""
+    """A MuJoCo task's body mass, moved every step in an extra case."""
 
 
 ENVS = {
@@ -147,22 +154,59 @@ ENVS = {
     "Acrobot": Bench("Acrobot-v1", "ns_pz/Acrobot-v0", "link_mass_2", nsgym_param="LINK_MASS_2"),
     "Pendulum": Bench("Pendulum-v1", "ns_pz/Pendulum-v0", "mass", nsgym_param="m"),
 }
-MUJOCO_ENVS = {  # timed with --mujoco (needs the mujoco extra); nature moves a mass every step
-    name: Bench(f"{name}-v5", f"ns_pz/{name}-v0", param, k=1e-6)
-    for name, param in (
-        ("InvertedPendulum", "pole_mass"),
-        ("InvertedDoublePendulum", "pole2_mass"),
-        ("Reacher", "body1_mass"),
-        ("Swimmer", "body_mid_mass"),
-        ("Pusher", "r_forearm_link_mass"),
-        ("Hopper", "torso_mass"),
-        ("Walker2d", "torso_mass"),
-        ("HalfCheetah", "torso_mass"),
-        ("Ant", "torso_mass"),
-        ("Humanoid", "torso_mass"),
-        ("HumanoidStandup", "torso_mass"),
+MUJOCO_ENVS = {  # timed with --mujoco (needs the mujoco extra)
+    name: Bench(f"{name}-v5", f"ns_pz/{name}-v0", param, k=1e-6, mass=mass)
+    for name, param, mass in (
+        ("InvertedPendulum", "gravity", "pole_mass"),
+        ("InvertedDoublePendulum", "gravity", "pole2_mass"),
+        ("Reacher", "joint1_damping", "body1_mass"),
+        ("Swimmer", "motor1_rot_damping", "body_mid_mass"),
+        ("Pusher", "gravity", "r_forearm_link_mass"),
+        ("Hopper", "gravity", "torso_mass"),
+        ("Walker2d", "gravity", "torso_mass"),
+        ("HalfCheetah", "gravity", "torso_mass"),
+        ("Ant", "gravity", "torso_mass"),
+        ("Humanoid", "gravity", "torso_mass"),
+        ("HumanoidStandup", "gravity", "torso_mass"),
     )
 }
+"""MuJoCo tasks: ``param`` (gravity or a damping: written into the model, nothing recomputed)
+moves at every step in the ``change every step`` cases; ``mass`` in the ``mass every step`` case,
+which also pays ``mj_setConst`` (MuJoCo's derived constants) at every step."""
+
+
+MUJOCO_EPISODE = 100
+"""Steps per timed MuJoCo episode: the physics' cost depends on the state (contacts), so raw
+and view run the same short episodes from the same start states."""
+
+
+class SyncedMujoco(gym.Wrapper):
+    """Gymnasium's MuJoCo env, reset to the start state of a static ns_pz view seeded alike.
+
+    Every episode (``MUJOCO_EPISODE`` steps at most) then begins where the views' episodes
+    begin, so ``raw`` and ``view`` time the same physics.
+    """
+
+    def __init__(self, env: gym.Env, view: ns_pz.NSGymEnv) -> None:
+        super().__init__(env)
+        self.view = view
+        self.steps = 0
+
+    def reset(self, **kwargs):  # noqa: ANN003, ANN201, D102
+        self.env.reset(**kwargs)
+        self.view.reset(**kwargs)
+        state = self.view.planning_model().get_state()
+        family, model, data = self.view.family, self.env.unwrapped.model, self.env.unwrapped.data
+        integration = np.frombuffer(state, count=family.layout.integration)
+        mujoco.mj_setState(model, data, integration, mujoco.mjtState.mjSTATE_INTEGRATION)
+        mujoco.mj_forward(model, data)
+        self.steps = 0
+        return family.observe(state), {}
+
+    def step(self, action):  # noqa: ANN001, ANN201, D102
+        observation, reward, terminated, _, info = self.env.step(action)
+        self.steps += 1
+        return observation, reward, terminated, self.steps >= MUJOCO_EPISODE, info
 
 
 def cases(name: str) -> dict[str, Runner]:
@@ -177,13 +221,17 @@ def cases(name: str) -> dict[str, Runner]:
 
     every = ScriptedNature({param: rule(ContinuousScheduler(start=0))})
     once = ScriptedNature({param: rule(DiscreteScheduler({1}))})
-    if base_id in gym.registry:
+    limit = {}
+    if name in MUJOCO_ENVS:  # short episodes, raw started where the views start
+        limit = {"max_episode_steps": MUJOCO_EPISODE}
+        raw = SyncedMujoco(gym.make(base_id).unwrapped, gym.make(ns_id, **limit).unwrapped)
+    elif base_id in gym.registry:
         raw = gym.make(base_id).unwrapped
     else:  # the Bridge without NS-Gym: the stationary ns_pz view stands in
         raw = gym.make(ns_id).unwrapped
-    view_every = gym.make(ns_id, nature=every).unwrapped
-    view_once = gym.make(ns_id, nature=once).unwrapped
-    game = ns_pz.make(ns_id)
+    view_every = gym.make(ns_id, nature=every, **limit).unwrapped
+    view_once = gym.make(ns_id, nature=once, **limit).unwrapped
+    game = ns_pz.make(ns_id, **limit)
     runners: dict[str, Runner] = {
         "raw": lambda a: time_gym(raw, a, 0),
         "view, change every step": lambda a: time_gym(view_every, a, 0),
@@ -191,6 +239,10 @@ def cases(name: str) -> dict[str, Runner]:
         "AEC cycle, change every step": lambda a: time_game(game, a, 0, observe=False),
         "AEC cycle + observe, every step": lambda a: time_game(game, a, 0, observe=True),
     }
+    if bench.mass:
+        masses = ScriptedNature({bench.mass: rule(ContinuousScheduler(start=0))})
+        view_mass = gym.make(ns_id, nature=masses, **limit).unwrapped
+        runners["view, mass every step"] = lambda a: time_gym(view_mass, a, 0)
     if ng_wrappers is not None and name in ENVS:
         runners.update(nsgym_cases(name))
     return runners
