@@ -295,3 +295,28 @@ class MujocoFamily(EnvFamily):
 
     def __reduce__(self) -> tuple[type, tuple[()]]:
         return type(self), ()
+
+
+def task_family(
+    name: str, gymnasium_env: str, knobs: tuple[Knob, ...], carried: tuple[str, ...] = ()
+) -> type[MujocoFamily]:
+    """The family of Gymnasium's ``{name}-v5`` with ``knobs`` as θ (``{name}Params``).
+
+    Args:
+        name: The task's name (``"HalfCheetah"``).
+        gymnasium_env: Gymnasium's env class, ``"module:Class"``.
+        knobs: The θ fields, in order.
+        carried: :attr:`MujocoFamily.carried`.
+    """
+    params_cls = params_class(
+        f"{name}Params", knobs, f"θ of {name}-v5: {', '.join(k.name for k in knobs)}."
+    )
+    namespace = {
+        "__doc__": f"Gymnasium's {name}-v5 with :class:`{name}Params` as θ.",
+        "__module__": params_cls.__module__,
+        "gymnasium_env": gymnasium_env,
+        "knobs": knobs,
+        "params_cls": params_cls,
+        "carried": carried,
+    }
+    return type(f"{name}Family", (MujocoFamily,), namespace)

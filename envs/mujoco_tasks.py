@@ -17,8 +17,7 @@ from ns_pz.envs.mujoco_family import (
     GRAVITY,
     MASS,
     Knob,
-    MujocoFamily,
-    params_class,
+    task_family,
 )
 from ns_pz.envs.registry import MUJOCO_TASKS
 
@@ -147,168 +146,47 @@ _HUMANOID_KNOBS = (
     Knob("left_elbow_damping", DAMPING, "left_elbow", 1.0),
 )
 
-InvertedPendulumParams = params_class(
-    "InvertedPendulumParams",
-    _INVERTEDPENDULUM_KNOBS,
-    "θ of InvertedPendulum-v5: {}.".format(", ".join(k.name for k in _INVERTEDPENDULUM_KNOBS)),
+InvertedPendulumFamily = task_family(
+    "InvertedPendulum", _GYM + "inverted_pendulum_v5:InvertedPendulumEnv", _INVERTEDPENDULUM_KNOBS
 )
+InvertedPendulumParams = InvertedPendulumFamily.params_cls
 
-
-class InvertedPendulumFamily(MujocoFamily):
-    """Gymnasium's InvertedPendulum-v5 with :class:`InvertedPendulumParams` as θ."""
-
-    gymnasium_env = _GYM + "inverted_pendulum_v5:InvertedPendulumEnv"
-    knobs = _INVERTEDPENDULUM_KNOBS
-    params_cls = InvertedPendulumParams
-
-
-InvertedDoublePendulumParams = params_class(
-    "InvertedDoublePendulumParams",
+InvertedDoublePendulumFamily = task_family(
+    "InvertedDoublePendulum",
+    _GYM + "inverted_double_pendulum_v5:InvertedDoublePendulumEnv",
     _INVERTEDDOUBLEPENDULUM_KNOBS,
-    "θ of InvertedDoublePendulum-v5: {}.".format(
-        ", ".join(k.name for k in _INVERTEDDOUBLEPENDULUM_KNOBS)
-    ),
 )
+InvertedDoublePendulumParams = InvertedDoublePendulumFamily.params_cls
 
+ReacherFamily = task_family("Reacher", _GYM + "reacher_v5:ReacherEnv", _REACHER_KNOBS)
+ReacherParams = ReacherFamily.params_cls
 
-class InvertedDoublePendulumFamily(MujocoFamily):
-    """Gymnasium's InvertedDoublePendulum-v5 with :class:`InvertedDoublePendulumParams` as θ."""
+SwimmerFamily = task_family("Swimmer", _GYM + "swimmer_v5:SwimmerEnv", _SWIMMER_KNOBS)
+SwimmerParams = SwimmerFamily.params_cls
 
-    gymnasium_env = _GYM + "inverted_double_pendulum_v5:InvertedDoublePendulumEnv"
-    knobs = _INVERTEDDOUBLEPENDULUM_KNOBS
-    params_cls = InvertedDoublePendulumParams
+PusherFamily = task_family("Pusher", _GYM + "pusher_v5:PusherEnv", _PUSHER_KNOBS)
+PusherParams = PusherFamily.params_cls
 
+HopperFamily = task_family("Hopper", _GYM + "hopper_v5:HopperEnv", _HOPPER_KNOBS)
+HopperParams = HopperFamily.params_cls
 
-ReacherParams = params_class(
-    "ReacherParams",
-    _REACHER_KNOBS,
-    "θ of Reacher-v5: {}.".format(", ".join(k.name for k in _REACHER_KNOBS)),
+Walker2dFamily = task_family("Walker2d", _GYM + "walker2d_v5:Walker2dEnv", _WALKER2D_KNOBS)
+Walker2dParams = Walker2dFamily.params_cls
+
+HalfCheetahFamily = task_family(
+    "HalfCheetah", _GYM + "half_cheetah_v5:HalfCheetahEnv", _HALFCHEETAH_KNOBS
 )
+HalfCheetahParams = HalfCheetahFamily.params_cls
 
+AntFamily = task_family("Ant", _GYM + "ant_v5:AntEnv", _ANT_KNOBS, carried=("xpos",))
+AntParams = AntFamily.params_cls
 
-class ReacherFamily(MujocoFamily):
-    """Gymnasium's Reacher-v5 with :class:`ReacherParams` as θ."""
-
-    gymnasium_env = _GYM + "reacher_v5:ReacherEnv"
-    knobs = _REACHER_KNOBS
-    params_cls = ReacherParams
-
-
-SwimmerParams = params_class(
-    "SwimmerParams",
-    _SWIMMER_KNOBS,
-    "θ of Swimmer-v5: {}.".format(", ".join(k.name for k in _SWIMMER_KNOBS)),
+HumanoidFamily = task_family(
+    "Humanoid", _GYM + "humanoid_v5:HumanoidEnv", _HUMANOID_KNOBS, carried=("xipos",)
 )
+HumanoidParams = HumanoidFamily.params_cls
 
-
-class SwimmerFamily(MujocoFamily):
-    """Gymnasium's Swimmer-v5 with :class:`SwimmerParams` as θ."""
-
-    gymnasium_env = _GYM + "swimmer_v5:SwimmerEnv"
-    knobs = _SWIMMER_KNOBS
-    params_cls = SwimmerParams
-
-
-PusherParams = params_class(
-    "PusherParams",
-    _PUSHER_KNOBS,
-    "θ of Pusher-v5: {}.".format(", ".join(k.name for k in _PUSHER_KNOBS)),
+HumanoidStandupFamily = task_family(
+    "HumanoidStandup", _GYM + "humanoidstandup_v5:HumanoidStandupEnv", _HUMANOID_KNOBS
 )
-
-
-class PusherFamily(MujocoFamily):
-    """Gymnasium's Pusher-v5 with :class:`PusherParams` as θ."""
-
-    gymnasium_env = _GYM + "pusher_v5:PusherEnv"
-    knobs = _PUSHER_KNOBS
-    params_cls = PusherParams
-
-
-HopperParams = params_class(
-    "HopperParams",
-    _HOPPER_KNOBS,
-    "θ of Hopper-v5: {}.".format(", ".join(k.name for k in _HOPPER_KNOBS)),
-)
-
-
-class HopperFamily(MujocoFamily):
-    """Gymnasium's Hopper-v5 with :class:`HopperParams` as θ."""
-
-    gymnasium_env = _GYM + "hopper_v5:HopperEnv"
-    knobs = _HOPPER_KNOBS
-    params_cls = HopperParams
-
-
-Walker2dParams = params_class(
-    "Walker2dParams",
-    _WALKER2D_KNOBS,
-    "θ of Walker2d-v5: {}.".format(", ".join(k.name for k in _WALKER2D_KNOBS)),
-)
-
-
-class Walker2dFamily(MujocoFamily):
-    """Gymnasium's Walker2d-v5 with :class:`Walker2dParams` as θ."""
-
-    gymnasium_env = _GYM + "walker2d_v5:Walker2dEnv"
-    knobs = _WALKER2D_KNOBS
-    params_cls = Walker2dParams
-
-
-HalfCheetahParams = params_class(
-    "HalfCheetahParams",
-    _HALFCHEETAH_KNOBS,
-    "θ of HalfCheetah-v5: {}.".format(", ".join(k.name for k in _HALFCHEETAH_KNOBS)),
-)
-
-
-class HalfCheetahFamily(MujocoFamily):
-    """Gymnasium's HalfCheetah-v5 with :class:`HalfCheetahParams` as θ."""
-
-    gymnasium_env = _GYM + "half_cheetah_v5:HalfCheetahEnv"
-    knobs = _HALFCHEETAH_KNOBS
-    params_cls = HalfCheetahParams
-
-
-AntParams = params_class(
-    "AntParams", _ANT_KNOBS, "θ of Ant-v5: {}.".format(", ".join(k.name for k in _ANT_KNOBS))
-)
-
-
-class AntFamily(MujocoFamily):
-    """Gymnasium's Ant-v5 with :class:`AntParams` as θ."""
-
-    gymnasium_env = _GYM + "ant_v5:AntEnv"
-    knobs = _ANT_KNOBS
-    params_cls = AntParams
-    carried = ("xpos",)
-
-
-HumanoidParams = params_class(
-    "HumanoidParams",
-    _HUMANOID_KNOBS,
-    "θ of Humanoid-v5: {}.".format(", ".join(k.name for k in _HUMANOID_KNOBS)),
-)
-
-
-class HumanoidFamily(MujocoFamily):
-    """Gymnasium's Humanoid-v5 with :class:`HumanoidParams` as θ."""
-
-    gymnasium_env = _GYM + "humanoid_v5:HumanoidEnv"
-    knobs = _HUMANOID_KNOBS
-    params_cls = HumanoidParams
-    carried = ("xipos",)
-
-
-HumanoidStandupParams = params_class(
-    "HumanoidStandupParams",
-    _HUMANOID_KNOBS,
-    "θ of HumanoidStandup-v5: {}.".format(", ".join(k.name for k in _HUMANOID_KNOBS)),
-)
-
-
-class HumanoidStandupFamily(MujocoFamily):
-    """Gymnasium's HumanoidStandup-v5 with :class:`HumanoidStandupParams` as θ."""
-
-    gymnasium_env = _GYM + "humanoidstandup_v5:HumanoidStandupEnv"
-    knobs = _HUMANOID_KNOBS
-    params_cls = HumanoidStandupParams
+HumanoidStandupParams = HumanoidStandupFamily.params_cls

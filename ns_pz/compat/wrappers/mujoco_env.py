@@ -18,14 +18,12 @@ those of every ``ns_pz.compat`` wrapper:
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
 
-from ns_pz.compat.base import UpdateFn
 from ns_pz.compat.families import Binding, env_class_name
-from ns_pz.compat.wrappers.core import NSWrapper, known_kwargs
+from ns_pz.compat.wrappers.core import ScalarWrapper
 from ns_pz.envs import mujoco_tasks
 from ns_pz.envs.mujoco_family import MujocoFamily
 from ns_pz.family import EnvFamily
@@ -49,7 +47,7 @@ MUJOCO: dict[str, Binding] = {b.env_class: b for b in map(_binding, mujoco_tasks
 """NS-Gym's ``SUPPORTED_MUJOCO_ENV_IDS`` (and Walker2d), by env class name."""
 
 
-class MujocoWrapper(NSWrapper):
+class MujocoWrapper(ScalarWrapper):
     """A Gymnasium v5 MuJoCo env (Ant, HalfCheetah, Hopper, Humanoid, ...) made non-stationary.
 
     ``tunable_params`` maps NS-Gym's parameter names (``torso_mass``, ``gravity``,
@@ -58,24 +56,6 @@ class MujocoWrapper(NSWrapper):
     """
 
     _accepts = "a Gymnasium v5 MuJoCo env (gymnasium.make('HalfCheetah-v5'), ...)"
-
-    def __init__(
-        self,
-        env: gym.Env[Any, Any],
-        tunable_params: Mapping[str, UpdateFn],
-        change_notification: bool = False,
-        delta_change_notification: bool = False,
-        in_sim_change: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        super().__init__(
-            env,
-            tunable_params,
-            change_notification,
-            delta_change_notification,
-            in_sim_change,
-            **known_kwargs(kwargs),
-        )
 
     def _binding(self, env: gym.Env[Any, Any]) -> Binding:
         binding = MUJOCO.get(env_class_name(env))
