@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import sys
 
@@ -79,3 +80,15 @@ def test_import_loads_no_torch_and_no_compiler(tmp_path):
     )
     out = run_python(code, tmp_path)
     assert out.stdout.strip() == "[]"
+
+
+def test_mujoco_tasks_are_registered_only_with_mujoco(tmp_path):
+    """Without the mujoco extra no MuJoCo id is listed (so nothing tries to run one)."""
+    code = (
+        "import sys; sys.modules['mujoco'] = None; import ns_pz;"
+        " print([e for e in ns_pz.registered_envs() if 'Cheetah' in e or 'Humanoid' in e])"
+    )
+    assert run_python(code, tmp_path).stdout.strip() == "[]"
+    if importlib.util.find_spec("mujoco") is not None:
+        code = "import ns_pz; print(sum('Humanoid' in e for e in ns_pz.registered_envs()))"
+        assert run_python(code, tmp_path).stdout.strip() == "2"
