@@ -1,7 +1,9 @@
 """Cost of the NS-MDP core relative to the raw Gymnasium step, measured in one run.
 
 For each environment of :data:`ENVS` (CartPole, FrozenLake, CliffWalking, Bridge, MountainCar,
-MountainCarContinuous, Acrobot, Pendulum; ``--envs`` picks some) it times, per transition:
+MountainCarContinuous, Acrobot, Pendulum; ``--envs`` picks some) and, with ``--mujoco``, for the
+MuJoCo tasks of :data:`MUJOCO_ENVS` (gravity or a damping moved at every step, and a body mass
+in an extra case), it times, per transition:
 
 * ``raw``: ``gymnasium.make(base_id).unwrapped.step`` (the reference, 1.00x). Gymnasium has no
   Bridge: its reference is NS-Gym's base Bridge env (``ns_gym/Bridge-v0``, unwrapped) when NS-Gym
@@ -48,6 +50,10 @@ try:  # NS-Gym, for a side-by-side measurement when it is installed
     import ns_gym.wrappers as ng_wrappers
 except ImportError:
     ng_wrappers = None
+try:  # the MuJoCo tasks (--mujoco), with the mujoco extra
+    import mujoco
+except ImportError:
+    mujoco = None
 
 Runner = Callable[[list], float]
 SLIP = (1 / 3, 1 / 3, 1 / 3)
@@ -124,6 +130,8 @@ class Bench:
     """The Gymnasium attribute NS-Gym's wrapper sets (scalar θ)."""
     slip: tuple[float, ...] | None = None
     """NS-Gym's initial slip vector (grid worlds)."""
+    mass: str = ""
+    """A MuJoCo task's body mass, moved every step in an extra case."""
 
 
 ENVS = {
@@ -146,11 +154,64 @@ ENVS = {
     "Acrobot": Bench("Acrobot-v1", "ns_pz/Acrobot-v0", "link_mass_2", nsgym_param="LINK_MASS_2"),
     "Pendulum": Bench("Pendulum-v1", "ns_pz/Pendulum-v0", "mass", nsgym_param="m"),
 }
+MUJOCO_ENVS = {  # timed with --mujoco (needs the mujoco extra)
+    name: Bench(f"{name}-v5", f"ns_pz/{name}-v0", param, k=1e-6, mass=mass)
+    for name, param, mass in (
+        ("InvertedPendulum", "gravity", "pole_mass"),
+        ("InvertedDoublePendulum", "gravity", "pole2_mass"),
+        ("Reacher", "joint1_damping", "body1_mass"),
+        ("Swimmer", "motor1_rot_damping", "body_mid_mass"),
+        ("Pusher", "gravity", "r_forearm_link_mass"),
+        ("Hopper", "gravity", "torso_mass"),
+        ("Walker2d", "gravity", "torso_mass"),
+        ("HalfCheetah", "gravity", "torso_mass"),
+        ("Ant", "gravity", "torso_mass"),
+        ("Humanoid", "gravity", "torso_mass"),
+        ("HumanoidStandup", "gravity", "torso_mass"),
+    )
+}
+"""MuJoCo tasks: ``param`` (gravity or a damping: written into the model, nothing recomputed)
+moves at every step in the ``change every step`` cases; ``mass`` in the ``mass every step`` case,
+which also pays ``mj_setConst`` (MuJoCo's derived constants) at every step."""
+
+
+MUJOCO_EPISODE = 100
+"""Steps per timed MuJoCo episode: the physics' cost depends on the state (contacts), so raw
+and view run the same short episodes from the same start states."""
+
+
+class SyncedMujoco(gym.Wrapper):
+    """Gymnasium's MuJoCo env, reset to the start state of a static ns_pz view seeded alike.
+
+    Every episode (``MUJOCO_EPISODE`` steps at most) then begins where the views' episodes
+    begin, so ``raw`` and ``view`` time the same physics.
+    """
+
+    def __init__(self, env: gym.Env, view: ns_pz.NSGymEnv) -> None:
+        super().__init__(env)
+        self.view = view
+        self.steps = 0
+
+    def reset(self, **kwargs):  # noqa: ANN003, ANN201, D102
+        self.env.reset(**kwargs)
+        self.view.reset(**kwargs)
+        state = self.view.planning_model().get_state()
+        family, model, data = self.view.family, self.env.unwrapped.model, self.env.unwrapped.data
+        integration = np.frombuffer(state, count=family.layout.integration)
+        mujoco.mj_setState(model, data, integration, mujoco.mjtState.mjSTATE_INTEGRATION)
+        mujoco.mj_forward(model, data)
+        self.steps = 0
+        return family.observe(state), {}
+
+    def step(self, action):  # noqa: ANN001, ANN201, D102
+        observation, reward, terminated, _, info = self.env.step(action)
+        self.steps += 1
+        return observation, reward, terminated, self.steps >= MUJOCO_EPISODE, info
 
 
 def cases(name: str) -> dict[str, Runner]:
     """Every timed variant for one environment of :data:`ENVS`."""
-    bench = ENVS[name]
+    bench = ENVS.get(name) or MUJOCO_ENVS[name]
     base_id, ns_id, param = bench.base_id, bench.ns_id, bench.param
 
     def rule(scheduler):  # noqa: ANN001, ANN202
@@ -160,13 +221,17 @@ def cases(name: str) -> dict[str, Runner]:
 
     every = ScriptedNature({param: rule(ContinuousScheduler(start=0))})
     once = ScriptedNature({param: rule(DiscreteScheduler({1}))})
-    if base_id in gym.registry:
+    limit = {}
+    if name in MUJOCO_ENVS:  # short episodes, raw started where the views start
+        limit = {"max_episode_steps": MUJOCO_EPISODE}
+        raw = SyncedMujoco(gym.make(base_id).unwrapped, gym.make(ns_id, **limit).unwrapped)
+    elif base_id in gym.registry:
         raw = gym.make(base_id).unwrapped
     else:  # the Bridge without NS-Gym: the stationary ns_pz view stands in
         raw = gym.make(ns_id).unwrapped
-    view_every = gym.make(ns_id, nature=every).unwrapped
-    view_once = gym.make(ns_id, nature=once).unwrapped
-    game = ns_pz.make(ns_id)
+    view_every = gym.make(ns_id, nature=every, **limit).unwrapped
+    view_once = gym.make(ns_id, nature=once, **limit).unwrapped
+    game = ns_pz.make(ns_id, **limit)
     runners: dict[str, Runner] = {
         "raw": lambda a: time_gym(raw, a, 0),
         "view, change every step": lambda a: time_gym(view_every, a, 0),
@@ -174,7 +239,11 @@ def cases(name: str) -> dict[str, Runner]:
         "AEC cycle, change every step": lambda a: time_game(game, a, 0, observe=False),
         "AEC cycle + observe, every step": lambda a: time_game(game, a, 0, observe=True),
     }
-    if ng_wrappers is not None:
+    if bench.mass:
+        masses = ScriptedNature({bench.mass: rule(ContinuousScheduler(start=0))})
+        view_mass = gym.make(ns_id, nature=masses, **limit).unwrapped
+        runners["view, mass every step"] = lambda a: time_gym(view_mass, a, 0)
+    if ng_wrappers is not None and name in ENVS:
         runners.update(nsgym_cases(name))
     return runners
 
@@ -218,12 +287,13 @@ def random_actions(space: gym.Space, steps: int) -> list:
 def measure(name: str, steps: int, rounds: int) -> None:
     """Print µs per step and the median ratio to ``raw`` for every case of one env."""
     runners = cases(name)
-    actions = random_actions(gym.make(ENVS[name].ns_id).unwrapped.family.action_space, steps)
+    bench = ENVS.get(name) or MUJOCO_ENVS[name]
+    actions = random_actions(gym.make(bench.ns_id).unwrapped.family.action_space, steps)
     seconds: dict[str, list[float]] = {case: [] for case in runners}
     for _ in range(rounds):
         for case, run in runners.items():
             seconds[case].append(run(actions))
-    reference = "" if ENVS[name].base_id in gym.registry else " [raw = ns_pz, static]"
+    reference = "" if bench.base_id in gym.registry else " [raw = ns_pz, static]"
     print(f"\n{name}: {steps} steps x {rounds} rounds (median){reference}")
     print(f"  {'case':36s} {'us/step':>9s} {'x raw':>7s}")
     for case, times in seconds.items():
@@ -233,7 +303,7 @@ def measure(name: str, steps: int, rounds: int) -> None:
 
 def measure_planning(name: str, repeats: int) -> None:
     """Planning model save + restore and get_planning_env(), in µs."""
-    ns_id = "ns_pz/CartPole-v0" if name == "CartPole" else "ns_pz/FrozenLake-v0"
+    ns_id = f"ns_pz/{name}-v0"
     env = gym.make(ns_id, notification="detailed").unwrapped
     env.reset(seed=0)
     model = env.planning_model()
@@ -253,6 +323,8 @@ def measure_planning(name: str, repeats: int) -> None:
         f" get_planning_env(): {copy_env * 1e6:.1f} us"
     )
     if ng_wrappers is not None:
+        if name not in ("CartPole", "FrozenLake"):
+            return
         if name == "CartPole":
             update = ng_updates.IncrementUpdate(ng_schedulers.ContinuousScheduler(), k=1e-4)
             ng = ng_wrappers.NSClassicControlWrapper(
@@ -296,6 +368,12 @@ def main() -> None:
     parser.add_argument(
         "--envs", nargs="+", choices=sorted(ENVS), default=list(ENVS), help="environments to time"
     )
+    parser.add_argument(
+        "--mujoco",
+        nargs="*",
+        choices=sorted(MUJOCO_ENVS),
+        help="also time these MuJoCo tasks (no name: all), at a tenth of --steps",
+    )
     args = parser.parse_args()
     steps, rounds = (300, 2) if args.smoke else (args.steps, args.rounds)
     print(
@@ -304,8 +382,11 @@ def main() -> None:
     )
     for name in args.envs:
         measure(name, steps, rounds)
+    mujoco_tasks = [] if args.mujoco is None else args.mujoco or list(MUJOCO_ENVS)
+    for name in mujoco_tasks:
+        measure(name, max(steps // 10, 100), rounds)
     print("\nPlanning")
-    for name in ("CartPole", "FrozenLake"):
+    for name in ("CartPole", "FrozenLake", *mujoco_tasks[:1]):
         measure_planning(name, 1000 if args.smoke else 100_000)
 
 

@@ -19,6 +19,8 @@ family's constructor (``map_name="8x8"``).
 from __future__ import annotations
 
 import difflib
+import importlib
+import importlib.util
 import inspect
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -54,13 +56,25 @@ _GAME_KWARGS = _NS_KWARGS | {
 
 @dataclass(frozen=True)
 class NSEnvSpec:
-    """A registered environment: its family, default arguments and time limit."""
+    """A registered environment: its family, default arguments and time limit.
+
+    ``entry_point`` is the family class, or ``"module:Class"`` for one imported on first use
+    (the MuJoCo families, so that ``import ns_pz`` does not load MuJoCo).
+    """
 
     id: str
-    family: type[EnvFamily]
+    entry_point: type[EnvFamily] | str
     max_episode_steps: int
     description: str
     family_kwargs: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def family(self) -> type[EnvFamily]:
+        """The family class (imported now if registered by name)."""
+        if isinstance(self.entry_point, str):
+            module, _, name = self.entry_point.partition(":")
+            return getattr(importlib.import_module(module), name)  # type: ignore[no-any-return]
+        return self.entry_point
 
     def build_family(self, overrides: Mapping[str, Any], ns_names: set[str]) -> EnvFamily:
         """The family with the registered arguments, updated by ``overrides``.
@@ -82,13 +96,16 @@ _SPECS: dict[str, NSEnvSpec] = {}
 
 def register(
     id: str,
-    family: type[EnvFamily],
+    family: type[EnvFamily] | str,
     *,
     max_episode_steps: int,
     description: str,
     **family_kwargs: Any,
 ) -> None:
-    """Register an environment with ns_pz and with Gymnasium (which makes it conformance-tested)."""
+    """Register an environment with ns_pz and with Gymnasium (which makes it conformance-tested).
+
+    ``family`` is a class or ``"module:Class"``, imported when the environment is first made.
+    """
     _SPECS[id] = NSEnvSpec(id, family, max_episode_steps, description, dict(family_kwargs))
     gymnasium.register(
         id=id,
@@ -151,6 +168,20 @@ def _split(kwargs: Mapping[str, Any], ns_names: set[str]) -> tuple[dict[str, Any
     ns_kwargs = {k: v for k, v in kwargs.items() if k in ns_names}
     family_kwargs = {k: v for k, v in kwargs.items() if k not in ns_names}
     return ns_kwargs, family_kwargs
+
+
+def _register_mujoco() -> None:
+    """The MuJoCo tasks, when the ``mujoco`` extra is installed (found, not imported)."""
+    if importlib.util.find_spec("mujoco") is None:
+        return
+    for name, limit, theta in MUJOCO_TASKS:
+        # Gymnasium's {name}-v5 with NS-Gym's knobs as θ.
+        register(
+            f"ns_pz/{name}-v0",
+            f"ns_pz.envs.mujoco_tasks:{name}Family",
+            max_episode_steps=limit,
+            description=f"{name}-v5 (MuJoCo); θ: {theta}",
+        )
 
 
 # --- the registered environments ------------------------------------------------------------
@@ -243,3 +274,18 @@ COMPAT_BRIDGE_ID = "ns_pz_compat/Bridge-v0"
 gymnasium.register(
     id=COMPAT_BRIDGE_ID, entry_point="ns_pz.compat.envs.Bridge:Bridge", max_episode_steps=100
 )
+# Gymnasium's v5 MuJoCo tasks (name, time limit, θ), registered only with the mujoco extra.
+MUJOCO_TASKS: tuple[tuple[str, int, str], ...] = (
+    ("InvertedPendulum", 1000, "gravity, pole_mass, cart_mass, rail_friction"),
+    ("InvertedDoublePendulum", 1000, "gravity, cart/pole1/pole2 masses, rail friction, damping"),
+    ("Reacher", 50, "body0/body1 masses, joint0/joint1 damping"),
+    ("Swimmer", 1000, "torso/mid/back masses, rotor damping"),
+    ("Pusher", 100, "gravity, four arm-link masses, three joint dampings"),
+    ("Hopper", 1000, "gravity, torso/thigh/leg/foot masses, floor_friction, joint damping"),
+    ("Walker2d", 1000, "gravity, seven body masses, floor_friction, six joint dampings"),
+    ("HalfCheetah", 1000, "gravity, seven body masses, floor_friction, six joint dampings"),
+    ("Ant", 1000, "gravity, torso_mass, floor_friction"),
+    ("Humanoid", 1000, "gravity, thirteen body masses, floor_friction, knee/elbow damping"),
+    ("HumanoidStandup", 1000, "gravity, thirteen body masses, floor_friction, knee/elbow damping"),
+)
+_register_mujoco()

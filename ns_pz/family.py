@@ -49,6 +49,14 @@ class EnvFamily(ABC):
     def initial_state(self, rng: np.random.Generator) -> State:
         """Draw a start state."""
 
+    def initial_state_under(self, theta: Params, rng: np.random.Generator) -> State:
+        """Draw a start state for an episode that starts under ``theta`` (θ_0).
+
+        The same as :meth:`initial_state` unless a family's start depends on θ (a MuJoCo
+        task whose first observation reads inertias); what the game and the view call.
+        """
+        return self.initial_state(rng)
+
     @abstractmethod
     def step(
         self, state: State, action: Any, theta: Params, rng: np.random.Generator

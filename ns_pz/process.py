@@ -218,7 +218,9 @@ class NSProcess:
                 theta0 = _check_params(self.family, options["params"])
         if self.env_rng is None:
             self.seed(None)
-        self.state = self.family.initial_state(cast(np.random.Generator, self.env_rng))
+        self.state = self.family.initial_state_under(
+            theta0, cast(np.random.Generator, self.env_rng)
+        )
         self.initial_state = self.state
         self.theta0 = self.theta = self.last_theta = theta0
         self.t = 0

@@ -1020,11 +1020,11 @@ def test_nsgym_module_paths_import():
     from ns_pz.compat.base import NSWrapper
 
     assert NSWrapper is wrappers.NSWrapper
-    for module in ("mujoco_env", "box_2d", "purtsuit_evasion_wrapper"):
+    for module in ("box_2d", "purtsuit_evasion_wrapper"):
         with pytest.raises(ImportError, match="ns_pz has no .* family"):
             importlib.import_module(f"ns_pz.compat.wrappers.{module}")
-    with pytest.raises(ImportError, match="no MujocoWrapper"):
-        from ns_pz.compat.wrappers import MujocoWrapper  # noqa: F401
+    with pytest.raises(ImportError, match="no NSBox2dWrapper"):
+        from ns_pz.compat.wrappers import NSBox2dWrapper  # noqa: F401
 
 
 # -- issue 9, item 11: the settings of the env you wrap ------------------------------------------

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import sys
 
@@ -70,10 +71,11 @@ def test_module_prefixed_id_imports_ns_pz_by_itself(tmp_path):
 
 
 def test_import_loads_no_torch_and_no_compiler(tmp_path):
-    """Import ns_pz stays light: no torch, numba, jax, scipy, SB3, Ray or pygame."""
+    """Import ns_pz stays light: no torch, numba, jax, scipy, SB3, Ray, pygame or MuJoCo."""
     code = (
         "import sys, ns_pz, ns_pz.nature, ns_pz.monitor, ns_pz.seats;"
-        " heavy = ('torch', 'numba', 'jax', 'scipy', 'stable_baselines3', 'ray', 'pygame');"
+        " heavy = ('torch', 'numba', 'jax', 'scipy', 'stable_baselines3', 'ray', 'pygame',"
+        " 'mujoco');"
         " print([m for m in heavy if m in sys.modules])"
     )
     out = run_python(code, tmp_path)
@@ -91,3 +93,15 @@ def test_compat_bridge_is_made_after_plain_import_without_loading_compat(tmp_pat
         tmp_path,
     )
     assert out.stdout.split() == ["False", "ns_pz.compat.envs.Bridge", "100"]
+
+
+def test_mujoco_tasks_are_registered_only_with_mujoco(tmp_path):
+    """Without the mujoco extra no MuJoCo id is listed (so nothing tries to run one)."""
+    code = (
+        "import sys; sys.modules['mujoco'] = None; import ns_pz;"
+        " print([e for e in ns_pz.registered_envs() if 'Cheetah' in e or 'Humanoid' in e])"
+    )
+    assert run_python(code, tmp_path).stdout.strip() == "[]"
+    if importlib.util.find_spec("mujoco") is not None:
+        code = "import ns_pz; print(sum('Humanoid' in e for e in ns_pz.registered_envs()))"
+        assert run_python(code, tmp_path).stdout.strip() == "2"

@@ -9,6 +9,7 @@ that is not installed only matters to the wrapper that needs it.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -201,8 +202,9 @@ def classic_control_params(binding: Binding, env: gym.Env[Any, Any]) -> dict[str
 def tunable_defaults() -> dict[str, dict[str, Any]]:
     """NS-Gym's ``TUNABLE_PARAMS``: env class name -> {NS-Gym name: default}.
 
-    Classic-control entries come from the θ defaults of the installed families (which are
-    Gymnasium's defaults); grid entries are the wrappers' default slip vectors.
+    Classic-control and MuJoCo entries (the latter with the ``mujoco`` extra) come from the θ
+    defaults of the installed families (which are Gymnasium's defaults); grid entries are the
+    wrappers' default slip vectors.
     """
     table: dict[str, dict[str, Any]] = {}
     for name, binding in CLASSIC_CONTROL.items():
@@ -216,4 +218,10 @@ def tunable_defaults() -> dict[str, dict[str, Any]]:
         }
     for name, defaults in GRID_DEFAULTS.items():
         table[name] = {k: list(v) for k, v in defaults.items()}
+    if importlib.util.find_spec("mujoco") is not None:
+        from ns_pz.compat.wrappers.mujoco_env import MUJOCO
+
+        for name, binding in MUJOCO.items():
+            params_cls = binding.family_class().params_cls
+            table[name] = {k: params_cls.spec(v).default for k, v in binding.names.items()}
     return table

@@ -26,6 +26,7 @@ import gymnasium as gym
 import numpy as np
 
 from ns_pz.compat.families import Binding
+from ns_pz.envs.registry import MUJOCO_TASKS
 
 HONOURED: dict[str, tuple[str, ...]] = {
     "CartPoleEnv": ("kinematics_integrator",),
@@ -41,6 +42,7 @@ DERIVED: dict[str, tuple[str, ...]] = {
     "Continuous_MountainCarEnv": ("low_state", "high_state"),
     "FrozenLakeEnv": ("P", "desc", "nrow", "ncol", "initial_state_distrib", "reward_range"),
     "CliffWalkingEnv": ("P", "initial_state_distrib"),
+    **{f"{task}Env": ("model", "data", "mujoco_renderer") for task, _, _ in MUJOCO_TASKS},
 }
 """Env class -> attributes computed from others (checked through those, or read)."""
 

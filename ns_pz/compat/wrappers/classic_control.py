@@ -2,26 +2,24 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
 
-from ns_pz.compat.base import UpdateDistributionFn, UpdateFn
 from ns_pz.compat.families import (
     CLASSIC_CONTROL,
     Binding,
     classic_control_params,
     env_class_name,
 )
-from ns_pz.compat.wrappers.core import NSWrapper, known_kwargs
+from ns_pz.compat.wrappers.core import ScalarWrapper
 from ns_pz.family import EnvFamily
 from ns_pz.params import Params
 
 __all__ = ["NSClassicControlWrapper"]
 
 
-class NSClassicControlWrapper(NSWrapper):
+class NSClassicControlWrapper(ScalarWrapper):
     """CartPole-v1, MountainCar-v0, MountainCarContinuous-v0, Acrobot-v1 or Pendulum-v1.
 
     θ_0 is read from the env's attributes (``masspole``, ``LINK_LENGTH_1``, ``m``, ...), so an
@@ -33,24 +31,6 @@ class NSClassicControlWrapper(NSWrapper):
     """
 
     _accepts = "a classic-control env (gymnasium.make('CartPole-v1'), ...)"
-
-    def __init__(
-        self,
-        env: gym.Env[Any, Any],
-        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
-        change_notification: bool = False,
-        delta_change_notification: bool = False,
-        in_sim_change: bool = False,
-        **kwargs: Any,
-    ) -> None:
-        super().__init__(
-            env,
-            tunable_params,
-            change_notification,
-            delta_change_notification,
-            in_sim_change,
-            **known_kwargs(kwargs),
-        )
 
     def _binding(self, env: gym.Env[Any, Any]) -> Binding:
         binding = CLASSIC_CONTROL.get(env_class_name(env))

@@ -43,7 +43,13 @@ from ns_pz.nature.distribution_updates import total_variation
 from ns_pz.params import SIMPLEX, Params
 from ns_pz.process import GroundTruth, NSProcess
 
-__all__ = ["GROUND_TRUTH_CHANGE", "GROUND_TRUTH_DELTA", "NSWrapper", "known_kwargs"]
+__all__ = [
+    "GROUND_TRUTH_CHANGE",
+    "GROUND_TRUTH_DELTA",
+    "NSWrapper",
+    "ScalarWrapper",
+    "known_kwargs",
+]
 
 GROUND_TRUTH_CHANGE = "Ground Truth Env Change"
 """``info`` key: parameter name -> 1 if it changed for this step's transition, else 0 (int)."""
@@ -359,6 +365,32 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         return f"<{type(self).__name__}<{self.base_env}>>"
 
     __str__ = __repr__
+
+
+class ScalarWrapper(NSWrapper):
+    """NS-Gym's constructor of the wrappers whose parameters are numbers (classic control, MuJoCo).
+
+    The flags NS-Gym passes through ``**kwargs`` (``scalar_reward``, ``persistent_params``,
+    ``ground_truth_info``) are checked by name: any other keyword raises ``TypeError``.
+    """
+
+    def __init__(
+        self,
+        env: gym.Env[Any, Any],
+        tunable_params: Mapping[str, UpdateFn | UpdateDistributionFn],
+        change_notification: bool = False,
+        delta_change_notification: bool = False,
+        in_sim_change: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(
+            env,
+            tunable_params,
+            change_notification,
+            delta_change_notification,
+            in_sim_change,
+            **known_kwargs(kwargs),
+        )
 
 
 _WRAPPER_KWARGS = ("scalar_reward", "persistent_params", "ground_truth_info")
