@@ -384,10 +384,14 @@ class NSProcess:
         before, after = self.last_change
         return after.change_sizes(before)
 
-    def transition(self, action: Any) -> tuple[float, bool, bool]:
+    def transition(
+        self, action: Any, outcome: tuple[State, float, bool] | None = None
+    ) -> tuple[float, bool, bool]:
         """The agent's turn: draw the next state under the current θ and advance the clock.
 
-        ``action`` must already be checked (``family.check_action``).
+        ``action`` must already be checked (``family.check_action``). ``outcome``, if given, is
+        ``(next state, reward, terminal)`` already drawn under the current θ by a batched copy of
+        the family's dynamics (:mod:`ns_pz.vector`); the process then only does the bookkeeping.
 
         Returns:
             ``(reward, terminated, truncated)``.
@@ -398,12 +402,14 @@ class NSProcess:
         if self.turn != DECISION or self.done:
             self.check_turn(DECISION, "the agent's turn")
         self.last_state = self.state
-        self.state, reward, terminated = self.family.step(
-            self.state,
-            action,
-            self.theta,
-            self.env_rng,  # type: ignore[arg-type]
-        )
+        if outcome is None:
+            outcome = self.family.step(
+                self.state,
+                action,
+                self.theta,
+                self.env_rng,  # type: ignore[arg-type]
+            )
+        self.state, reward, terminated = outcome
         self.last_action = action
         self.last_reward = reward
         theta = self.theta
