@@ -5,11 +5,11 @@ Each kernel computes, for a batch of sub-environments at once, exactly what the 
 equal bit for bit (the vector env's tests compare them with N single views). θ arrives as an
 ``(N, D)`` float64 array of rows laid out as :meth:`ns_pz.params.Params.flat`.
 
-Randomness: a kernel declares :attr:`~ns_pz.vector.BatchKernel.uniforms`, the number of uniform
-doubles it consumes per transition and per start state; the vector env draws them from each
-sub-environment's own generator, in the order the scalar family would. CartPole and MountainCar
-draw only at reset (through the family's own ``initial_state``), the grid worlds
-one uniform per transition and per start state.
+Randomness: a kernel declares how many uniform doubles a transition and a start state consume
+(:attr:`~ns_pz.vector.BatchKernel.step_uniforms`, ``reset_uniforms``); the vector env draws them
+from each sub-environment's own generator, in the order the scalar family would (NumPy's
+``uniform(low, high)`` is ``low + (high - low) * u`` of one such double). CartPole and
+MountainCar draw only start states, the grid worlds one uniform per transition and per start.
 
 :func:`kernel_for` picks the kernel of a family; families without one (Acrobot,
 MountainCarContinuous, Pendulum, custom families) get :class:`~ns_pz.vector.LoopKernel`, which calls the
@@ -38,6 +38,12 @@ from ns_pz.vector import ArrayKernel, BatchKernel, LoopKernel
 class CartPoleKernel(ArrayKernel):
     """CartPole: states ``(N, 4)`` float64; θ columns gravity, masscart, masspole, length,
     force_mag, tau."""
+
+    reset_uniforms = 4
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Uniform in [-0.05, 0.05]^4: ``low + (high - low) * u``, as NumPy's ``uniform``."""
+        return _uniform(-0.05, 0.05, uniforms)
 
     def __init__(self, family: CartPoleFamily) -> None:
         super().__init__(family, state_shape=(4,), state_dtype=np.float64)
@@ -87,6 +93,13 @@ class CartPoleKernel(ArrayKernel):
 class MountainCarKernel(ArrayKernel):
     """MountainCar (discrete pushes): states ``(N, 2)``; θ columns gravity, force."""
 
+    reset_uniforms = 1
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Position uniform in [-0.6, -0.4], velocity 0 (as the family's ``initial_state``)."""
+        position = _uniform(-0.6, -0.4, uniforms[:, 0])
+        return np.stack((position, np.zeros_like(position)), axis=1)
+
     def __init__(self, family: MountainCarFamily) -> None:
         super().__init__(family, state_shape=(2,), state_dtype=np.float64)
         self._family = family
@@ -121,7 +134,8 @@ class SlipGridKernel(ArrayKernel):
     below it, the last outcome of positive probability.
     """
 
-    uniforms = 1
+    step_uniforms = 1
+    reset_uniforms = 1
 
     def __init__(self, family: SlipGridFamily) -> None:
         super().__init__(family, state_shape=(), state_dtype=np.int64)
@@ -139,7 +153,7 @@ class SlipGridKernel(ArrayKernel):
     def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
         """Start cells, one uniform each (as the family's ``initial_state``)."""
         cumulative = self._start_cumulative
-        index = np.minimum((cumulative[None, :] <= uniforms[:, None]).sum(1), len(cumulative) - 1)
+        index = np.minimum((cumulative[None, :] <= uniforms).sum(1), len(cumulative) - 1)
         return self._start_states[index]
 
     def step(
@@ -163,6 +177,11 @@ class SlipGridKernel(ArrayKernel):
     def observe(self, states: np.ndarray) -> np.ndarray:
         """The cell indices."""
         return states.copy()
+
+
+def _uniform(low: float, high: float, uniforms: np.ndarray) -> np.ndarray:
+    """``Generator.uniform(low, high)`` from its underlying doubles: ``low + (high - low) * u``."""
+    return low + (np.float64(high) - np.float64(low)) * uniforms
 
 
 def kernel_for(family: EnvFamily) -> BatchKernel:

@@ -80,12 +80,13 @@ class BatchKernel:
 
     Attributes:
         family: The family whose scalar dynamics this kernel reproduces.
-        uniforms: Uniform doubles consumed from a sub-env's generator per transition and per
-            start state (0: the kernel draws nothing in ``step`` and start states come from
-            the family's ``initial_state``).
+        step_uniforms: Uniform doubles a transition consumes from its sub-env's generator.
+        reset_uniforms: Uniform doubles a start state consumes (0: the family's
+            ``initial_state`` draws it from the generator itself).
     """
 
-    uniforms = 0
+    step_uniforms = 0
+    reset_uniforms = 0
 
     def __init__(self, family: EnvFamily) -> None:
         self.family = family
@@ -122,7 +123,7 @@ class ArrayKernel(BatchKernel):
         raise NotImplementedError
 
     def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
-        """Start states from one uniform each (kernels with :attr:`uniforms` > 0)."""
+        """Start states from ``(N, reset_uniforms)`` uniforms (kernels that declare them)."""
         raise NotImplementedError
 
     def pack(self, state: State) -> Any:
@@ -235,6 +236,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         self._uniforms = np.zeros((n, _BUFFER))
         self._cursor = np.zeros(n, np.int64)
         self._scratch = np.random.Generator(np.random.PCG64(0))
+        self._buffered = bool(self.kernel.step_uniforms or self.kernel.reset_uniforms)
 
     # -- Gymnasium API ------------------------------------------------------------------------
     def reset(
@@ -336,26 +338,29 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             process = self._processes[i]
             process.seed(sequence)
             rng = process.env_rng
-            if self.kernel.uniforms:
-                process.env_rng = self._scratch  # start states come from our own draws
+            if self._buffered:
+                process.env_rng = self._scratch  # its draws come from our buffer instead
         else:
             rng = np.random.Generator(np.random.PCG64(sequence))  # as NSProcess.seed
         assert rng is not None
         self._rngs[i] = rng
-        if self.kernel.uniforms:
+        if self._buffered:
             self._uniforms[i] = rng.random(_BUFFER)
             self._cursor[i] = 0
 
-    def _draw(self, rows: np.ndarray) -> np.ndarray:
-        """One uniform per selected sub-env (``rows``: a bool mask), from its own stream."""
+    def _draw(self, rows: np.ndarray, count: int) -> np.ndarray:
+        """``count`` uniforms per selected sub-env (``rows``: a bool mask), each from its own
+        stream in order, as an ``(N, count)`` array (rows not selected: stale values)."""
         cursor = self._cursor
-        spent = rows & (cursor >= _BUFFER)
-        for i in np.flatnonzero(spent):
-            self._uniforms[i] = self._rngs[i].random(_BUFFER)  # type: ignore[union-attr]
+        short = rows & (cursor + count > _BUFFER)
+        for i in np.flatnonzero(short):  # keep what is left, then draw on
+            left = self._uniforms[i, cursor[i] :].copy()
+            self._uniforms[i, : len(left)] = left
+            self._uniforms[i, len(left) :] = self._rngs[i].random(_BUFFER - len(left))  # type: ignore[union-attr]
             cursor[i] = 0
-        index = np.arange(self.num_envs)
-        values = self._uniforms[index, np.minimum(cursor, _BUFFER - 1)]
-        cursor += rows
+        columns = np.minimum(cursor[:, None] + np.arange(count), _BUFFER - 1)
+        values = np.take_along_axis(self._uniforms, columns, axis=1)
+        cursor += rows * count
         return values
 
     def _check_actions(self, actions: Any) -> np.ndarray:
@@ -365,8 +370,8 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             if (
                 array.shape != (self.num_envs,)
                 or array.dtype.kind not in "iu"
-                or (array < space.start).any()
-                or (array >= space.start + space.n).any()
+                or array.min() < space.start
+                or array.max() >= space.start + space.n
             ):
                 raise ValueError(
                     f"actions={actions!r} must be {self.num_envs} ints in "
@@ -386,36 +391,40 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         kernel = self.kernel
         outcome = None
         if isinstance(kernel, ArrayKernel):
-            uniforms = self._draw(stepping) if kernel.uniforms else None
+            count = kernel.step_uniforms
+            uniforms = self._draw(stepping, count)[:, 0] if count else None
             outcome = kernel.step(self._states, actions, self._theta, uniforms)
         if self.engine == "processes":
             self._processes_transition(stepping, actions, outcome, rewards, terminated, truncated)
             return
         assert outcome is not None
         states, reward, terminal = outcome
-        self._states[stepping] = states[stepping]
-        rewards[stepping] = reward[stepping]
+        # In NEXT_STEP the rows not stepping are reset after this, so whole-array updates
+        # (np.copyto with a mask, fill) are exact and cheaper than boolean indexing.
+        np.copyto(self._states, states, where=stepping.reshape(-1, *[1] * (states.ndim - 1)))
+        np.copyto(rewards, reward, where=stepping)
         theta, last = self._theta, self._last_theta
-        changed = stepping & (theta != last).any(axis=1)
+        changed = (theta != last).any(axis=1)
+        changed &= stepping
         self._t += stepping
+        np.logical_and(stepping, terminal, out=terminated)
         limit = self.max_episode_steps
-        terminated |= stepping & terminal
         if limit is not None:
-            truncated |= stepping & (self._t >= limit)
+            np.logical_and(stepping, self._t >= limit, out=truncated)
         done = terminated | truncated
-        self._flags[stepping] = 0
-        self._sizes[stepping] = 0.0
+        self._flags.fill(0)
+        self._sizes.fill(0.0)
         notify = changed & ~done
-        if notify.any() and self.level.shows_flags:
-            sizes = self._change_sizes(last[notify], theta[notify])
-            self._flags[notify] = sizes > 0.0
+        if self.level.shows_flags and notify.any():
+            sizes = self._change_sizes(last, theta)
+            sizes *= notify[:, None]
+            self._flags[:] = sizes > 0.0
             if self.level.shows_sizes:
-                self._sizes[notify] = sizes
-        last[changed] = theta[changed]
+                self._sizes[:] = sizes
+        np.copyto(last, theta, where=changed[:, None])
         acting = stepping & ~done
-        if acting.any():
-            assert self._schedule is not None
-            self._schedule.act(self, acting)
+        assert self._schedule is not None
+        self._schedule.act(self, acting)
 
     def _processes_transition(
         self,
@@ -459,9 +468,9 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
     def _reset_rows(self, rows: np.ndarray, options: Mapping[str, Any] | None) -> None:
         kernel = self.kernel
         starts = None
-        if kernel.uniforms:
+        if kernel.reset_uniforms:
             assert isinstance(kernel, ArrayKernel)
-            starts = kernel.initial_from_uniforms(self._draw(rows))
+            starts = kernel.initial_from_uniforms(self._draw(rows, kernel.reset_uniforms))
         if self.engine == "processes":
             for i in np.flatnonzero(rows):
                 process = self._processes[i]
@@ -585,22 +594,27 @@ class _ArraySchedule:
             counts[rows] = 0
 
     def act(self, env: NSVectorEnv, rows: np.ndarray) -> None:
-        """Nature's turn in the selected sub-envs (a bool mask), each at its own step."""
+        """Nature's turn in the selected sub-envs (a bool mask), each at its own step.
+
+        Rules are applied to whole columns (cheaper than gathering rows) and kept where the
+        scheduler fired and the value moved.
+        """
         theta = env._theta
         steps = env._t
         for (spec, rule, start, stop), counts in zip(self._entries, self._counts, strict=True):
             fires = _fires(rule.scheduler, steps, rows)
             if not fires.any():
                 continue
-            index = np.flatnonzero(fires)
-            old = theta[index, start:stop]
-            n = counts[index]
-            counts[index] = n + 1
-            new = self._propose(spec, rule, old, n)
+            old = theta[:, start:stop]
+            new = self._propose(spec, rule, old, counts, fires)
+            counts += fires
             moved = (new != old).any(axis=1)
-            theta[index[moved], start:stop] = new[moved]
+            moved &= fires
+            np.copyto(old, new, where=moved[:, None])
 
-    def _propose(self, spec: Any, rule: Any, old: np.ndarray, n: np.ndarray) -> np.ndarray:
+    def _propose(
+        self, spec: Any, rule: Any, old: np.ndarray, n: np.ndarray, fires: np.ndarray
+    ) -> np.ndarray:
         """The rule's values, projected onto the spec exactly as ``ParamSpec.project`` does."""
         kind = type(rule)
         if spec.kind == SIMPLEX:
@@ -612,7 +626,7 @@ class _ArraySchedule:
             total = new[:, 0] + 0.0
             for j in range(1, new.shape[1]):
                 total = total + new[:, j]
-            odd = np.abs(total - 1.0) > SIMPLEX_ATOL
+            odd = (np.abs(total - 1.0) > SIMPLEX_ATOL) & fires
             for i in np.flatnonzero(odd):  # rare: let the spec project it
                 new[i] = spec.project(self._owner, tuple(new[i].tolist()))
             return new
@@ -638,15 +652,15 @@ class _ArraySchedule:
 
 def _fires(scheduler: Any, steps: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Where a deterministic scheduler fires, for the selected rows at their own steps."""
-    selected = steps[rows]
-    out = np.zeros(len(rows), np.bool_)
-    if len(selected) == 0:
-        return out
-    low, high = int(selected.min()), int(selected.max())
-    if low == high:
-        out[rows] = scheduler(low, None)
-        return out
-    unique, inverse = np.unique(selected, return_inverse=True)
-    fired = np.array([scheduler(int(t), None) for t in unique], np.bool_)
-    out[rows] = fired[inverse]
-    return out
+    kind = type(scheduler)
+    if kind is ContinuousScheduler or kind is PeriodicScheduler:
+        active = steps >= scheduler.start
+        if scheduler.end is not None:
+            active &= steps <= scheduler.end
+        if kind is PeriodicScheduler:
+            active &= (steps - scheduler.start) % scheduler.period == 0
+        return active & rows
+    if kind is DiscreteScheduler:
+        return np.isin(steps, list(scheduler.event_list)) & rows
+    fired = np.array([scheduler(int(t), None) for t in steps], np.bool_)
+    return fired & rows
