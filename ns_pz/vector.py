@@ -222,6 +222,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         count = len(first.param_names)
         self._theta0_row = np.array(first.base_theta0.flat_values(), np.float64)
         self._layout = first.family.params_cls.flat_layout()
+        self._all_scalar = all(spec.kind != SIMPLEX for spec, _, _ in self._layout)
         self._theta = np.tile(self._theta0_row, (n, 1))
         self._last_theta = self._theta.copy()
         self._theta_objects: list[Params | None] = [None] * n
@@ -301,8 +302,15 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         rewards = np.zeros(n)
         terminated = np.zeros(n, np.bool_)
         truncated = np.zeros(n, np.bool_)
+        arrays = self.engine == "arrays"
+        restart = arrays and resetting.any()
+        if restart:  # independent of the stepping rows; nature then acts once for both
+            self._reset_rows(resetting, None, act=False)
         if stepping.any():
-            self._transition(stepping, actions, rewards, terminated, truncated)
+            self._transition(stepping, actions, rewards, terminated, truncated, resetting)
+        elif restart:
+            assert self._schedule is not None
+            self._schedule.act(self, resetting)
         ended = terminated | truncated
         if self.autoreset_mode is AutoresetMode.SAME_STEP:
             if ended.any():
@@ -318,7 +326,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
                 }
                 self._reset_rows(ended, None)
         else:
-            if resetting.any():
+            if not arrays and resetting.any():
                 self._reset_rows(resetting, None)
             self._autoreset = ended
         return self._observation(), rewards, terminated, truncated, infos
@@ -349,18 +357,23 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             self._cursor[i] = 0
 
     def _draw(self, rows: np.ndarray, count: int) -> np.ndarray:
-        """``count`` uniforms per selected sub-env (``rows``: a bool mask), each from its own
-        stream in order, as an ``(N, count)`` array (rows not selected: stale values)."""
+        """``count`` uniforms for each selected sub-env (``rows``: sorted indices), each from
+        its own stream in order, as a ``(len(rows), count)`` array."""
         cursor = self._cursor
-        short = rows & (cursor + count > _BUFFER)
-        for i in np.flatnonzero(short):  # keep what is left, then draw on
+        at = cursor[rows]
+        short = rows[at + count > _BUFFER]
+        for i in short:  # keep what is left, then draw on
             left = self._uniforms[i, cursor[i] :].copy()
             self._uniforms[i, : len(left)] = left
             self._uniforms[i, len(left) :] = self._rngs[i].random(_BUFFER - len(left))  # type: ignore[union-attr]
             cursor[i] = 0
-        columns = np.minimum(cursor[:, None] + np.arange(count), _BUFFER - 1)
-        values = np.take_along_axis(self._uniforms, columns, axis=1)
-        cursor += rows * count
+        if len(short):
+            at = cursor[rows]
+        if count == 1:
+            values = self._uniforms[rows, at][:, None]
+        else:
+            values = self._uniforms[rows[:, None], at[:, None] + np.arange(count)]
+        cursor[rows] = at + count
         return values
 
     def _check_actions(self, actions: Any) -> np.ndarray:
@@ -387,12 +400,17 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         rewards: np.ndarray,
         terminated: np.ndarray,
         truncated: np.ndarray,
+        restarted: np.ndarray,
     ) -> None:
         kernel = self.kernel
         outcome = None
         if isinstance(kernel, ArrayKernel):
             count = kernel.step_uniforms
-            uniforms = self._draw(stepping, count)[:, 0] if count else None
+            uniforms = None
+            if count:
+                uniforms = np.zeros(self.num_envs)
+                moving = np.flatnonzero(stepping)
+                uniforms[moving] = self._draw(moving, count)[:, 0]
             outcome = kernel.step(self._states, actions, self._theta, uniforms)
         if self.engine == "processes":
             self._processes_transition(stepping, actions, outcome, rewards, terminated, truncated)
@@ -423,6 +441,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
                 self._sizes[:] = sizes
         np.copyto(last, theta, where=changed[:, None])
         acting = stepping & ~done
+        acting |= restarted
         assert self._schedule is not None
         self._schedule.act(self, acting)
 
@@ -465,20 +484,25 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             self._theta_objects[i] = process.theta
             self._theta[i] = process.theta.flat_values()
 
-    def _reset_rows(self, rows: np.ndarray, options: Mapping[str, Any] | None) -> None:
+    def _reset_rows(
+        self, rows: np.ndarray, options: Mapping[str, Any] | None, act: bool = True
+    ) -> None:
+        """Start new episodes in the selected sub-envs; ``act=False`` leaves nature's first
+        turn to the caller (array engine only)."""
         kernel = self.kernel
         starts = None
+        indices = np.flatnonzero(rows)
         if kernel.reset_uniforms:
             assert isinstance(kernel, ArrayKernel)
-            starts = kernel.initial_from_uniforms(self._draw(rows, kernel.reset_uniforms))
+            starts = kernel.initial_from_uniforms(self._draw(indices, kernel.reset_uniforms))
         if self.engine == "processes":
-            for i in np.flatnonzero(rows):
+            for j, i in enumerate(indices):
                 process = self._processes[i]
                 process.reset(options)
                 if starts is not None:
                     assert isinstance(kernel, ArrayKernel)
-                    self._states[i] = starts[i]
-                    state = kernel.unpack(starts[i])
+                    self._states[i] = starts[j]
+                    state = kernel.unpack(starts[j])
                     process.state = process.initial_state = process.last_state = state
                 elif isinstance(kernel, ArrayKernel):
                     self._states[i] = kernel.pack(process.state)
@@ -487,10 +511,10 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             return
         assert isinstance(kernel, ArrayKernel)
         if starts is not None:
-            self._states[rows] = starts[rows]
+            self._states[indices] = starts
         else:
             initial = self.family.initial_state
-            for i in np.flatnonzero(rows):
+            for i in indices:
                 self._states[i] = kernel.pack(initial(self._rngs[i]))  # type: ignore[arg-type]
         theta0 = self._theta0_row
         if options is not None and options.get("params") is not None:
@@ -504,19 +528,24 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         self._sizes[rows] = 0.0
         assert self._schedule is not None
         self._schedule.restart(rows)
-        self._schedule.act(self, rows)
+        if act:
+            self._schedule.act(self, rows)
 
     def _change_sizes(self, before: np.ndarray, after: np.ndarray) -> np.ndarray:
-        """Per-parameter change sizes of rows, as :meth:`Params.change_sizes` computes them."""
+        """Per-parameter change sizes of rows, as :meth:`Params.change_sizes` computes them:
+        ``|after - before|`` for a scalar, half the sum of the elements' (left to right) for a
+        probability vector."""
+        difference = np.abs(after - before)
+        if self._all_scalar:
+            return difference
         sizes = np.empty((len(before), len(self._layout)))
         for j, (spec, start, stop) in enumerate(self._layout):
+            total = difference[:, start]
             if spec.kind == SIMPLEX:
-                total = np.abs(after[:, start] - before[:, start])
                 for k in range(start + 1, stop):
-                    total = total + np.abs(after[:, k] - before[:, k])
-                sizes[:, j] = 0.5 * total
-            else:
-                sizes[:, j] = np.abs(after[:, start] - before[:, start])
+                    total = total + difference[:, k]
+                total = 0.5 * total
+            sizes[:, j] = total
         return sizes
 
     def _observation(self) -> dict[str, Any]:
