@@ -32,12 +32,12 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
+from ns_pz.envs.registry import make_vec
 
 import ns_pz
 import ns_pz.compat.schedulers as compat_schedulers
 import ns_pz.compat.update_functions as compat_updates
 import ns_pz.compat.wrappers as compat_wrappers
-from ns_pz.envs.registry import make_vec
 from ns_pz.nature import (
     ContinuousScheduler,
     DiscreteScheduler,
@@ -116,8 +116,11 @@ def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) 
 
 
 def time_user_game(game: ns_pz.NSGame, actions: list, seed: int) -> float:
-    """Seconds per cycle as users run the game: nature and monitor through ``policy_action``,
-    ``observe()`` for every agent before it acts; resets excluded."""
+    """Seconds per cycle as users run the game, resets excluded.
+
+    Nature and monitor act through ``policy_action``; ``observe()`` is called for every agent
+    before it acts.
+    """
     game.reset(seed=seed)
     step, obs, policy = game.step, game.observe, game.policy_action
     nature, monitor, agent = ns_pz.NATURE, ns_pz.MONITOR, ns_pz.DECISION
@@ -189,7 +192,7 @@ def scripted(bench: Bench, scheduler: object) -> ScriptedNature:
 def cases(name: str) -> dict[str, Runner]:
     """Every timed variant for one environment of :data:`ENVS`."""
     bench = ENVS[name]
-    base_id, ns_id, param = bench.base_id, bench.ns_id, bench.param
+    base_id, ns_id = bench.base_id, bench.ns_id
 
     every = scripted(bench, ContinuousScheduler(start=0))
     once = scripted(bench, DiscreteScheduler({1}))

@@ -12,8 +12,8 @@ from each sub-environment's own generator, in the order the scalar family would 
 MountainCar draw only start states, the grid worlds one uniform per transition and per start.
 
 :func:`kernel_for` picks the kernel of a family; families without one (Acrobot,
-MountainCarContinuous, Pendulum, custom families) get :class:`~ns_pz.vector.LoopKernel`, which calls the
-scalar ``step`` per sub-environment: correct, not fast.
+MountainCarContinuous, Pendulum, custom families) get :class:`~ns_pz.vector.LoopKernel`, which
+calls the scalar ``step`` per sub-environment: correct, not fast.
 """
 
 from __future__ import annotations
@@ -21,7 +21,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-
 from ns_pz.envs.cartpole import THETA_THRESHOLD_RADIANS, X_THRESHOLD, CartPoleFamily
 from ns_pz.envs.grid import SlipGridFamily
 from ns_pz.envs.mountain_car import (
@@ -31,13 +30,16 @@ from ns_pz.envs.mountain_car import (
     MIN_POSITION,
     MountainCarFamily,
 )
+
 from ns_pz.family import EnvFamily
 from ns_pz.vector import ArrayKernel, BatchKernel, LoopKernel
 
 
 class CartPoleKernel(ArrayKernel):
-    """CartPole: states ``(N, 4)`` float64; θ columns gravity, masscart, masspole, length,
-    force_mag, tau."""
+    """CartPole: states ``(N, 4)`` float64.
+
+    θ columns: gravity, masscart, masspole, length, force_mag, tau.
+    """
 
     reset_uniforms = 4
 
@@ -110,9 +112,7 @@ class MountainCarKernel(ArrayKernel):
         """The scalar step's update for every row."""
         position, velocity = states.T
         gravity, force = theta.T
-        velocity = velocity + (
-            (actions - 1) * force + np.cos(3 * position) * (-gravity)
-        )
+        velocity = velocity + ((actions - 1) * force + np.cos(3 * position) * (-gravity))
         velocity = np.minimum(np.maximum(velocity, -MAX_SPEED), MAX_SPEED)
         position = position + velocity
         position = np.minimum(np.maximum(position, MIN_POSITION), MAX_POSITION)

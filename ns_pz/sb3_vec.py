@@ -74,7 +74,7 @@ class SB3VecEnv(VecEnv):  # type: ignore[misc]  # SB3 is untyped here
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
         """The vector env's attribute, once per selected sub-env."""
-        return [getattr(self.env, attr_name)] * len(self._get_indices(indices))
+        return [getattr(self.env, attr_name)] * len(list(self._get_indices(indices)))
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         """Refused: the sub-envs share one batched env.
@@ -96,7 +96,7 @@ class SB3VecEnv(VecEnv):  # type: ignore[misc]  # SB3 is untyped here
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
         """No sub-env is wrapped."""
-        return [False] * len(self._get_indices(indices))
+        return [False] * len(list(self._get_indices(indices)))
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         """No rendering."""

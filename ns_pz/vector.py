@@ -105,9 +105,7 @@ class ArrayKernel(BatchKernel):
         state_dtype: Its dtype.
     """
 
-    def __init__(
-        self, family: EnvFamily, state_shape: tuple[int, ...], state_dtype: type
-    ) -> None:
+    def __init__(self, family: EnvFamily, state_shape: tuple[int, ...], state_dtype: type) -> None:
         super().__init__(family)
         self.state_shape = state_shape
         self.state_dtype = state_dtype
@@ -207,7 +205,9 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             raise ValueError(f"kernel={kernel!r} was built for another family than {family!r}")
         self.level = first.level
         self.max_episode_steps = max_episode_steps
-        self._schedule = _ArraySchedule.of(natures, first) if _arrays_fit(self.kernel, first) else None
+        self._schedule = (
+            _ArraySchedule.of(natures, first) if _arrays_fit(self.kernel, first) else None
+        )
         self.engine = "processes" if self._schedule is None else "arrays"
         """``"arrays"`` or ``"processes"`` (see the module docstring)."""
         if self.engine == "arrays":
@@ -231,6 +231,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         self._sizes = np.zeros((n, count), np.float32)
         self._autoreset = np.zeros(n, np.bool_)
         self._started = False
+        self._states: np.ndarray = np.zeros(0)
         if isinstance(self.kernel, ArrayKernel):
             self._states = np.zeros((n, *self.kernel.state_shape), self.kernel.state_dtype)
         self._rngs: list[np.random.Generator | None] = [None] * n
@@ -263,7 +264,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             check_seed(seed)
             seeds = [int(seed) + i for i in range(n)]
         else:
-            seeds = list(seed)
+            seeds = list(seed)  # type: ignore[arg-type]  # a bool is refused by check_seed
             if len(seeds) != n:
                 raise ValueError(f"seed has {len(seeds)} entries; num_envs={n} needs {n}")
             for one in seeds:
@@ -333,8 +334,11 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
 
     # -- ns_pz extras -------------------------------------------------------------------------
     def thetas(self) -> np.ndarray:
-        """θ in force in every sub-env, an ``(N, D)`` copy laid out as ``Params.flat`` (for
-        evaluation only)."""
+        """θ in force in every sub-env (for evaluation only).
+
+        Returns:
+            An ``(N, D)`` copy, each row laid out as :meth:`ns_pz.params.Params.flat`.
+        """
         if self.engine == "processes":
             return np.array([p.theta.flat_values() for p in self._processes], np.float64)
         return self._theta.copy()
@@ -357,8 +361,10 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             self._cursor[i] = 0
 
     def _draw(self, rows: np.ndarray, count: int) -> np.ndarray:
-        """``count`` uniforms for each selected sub-env (``rows``: sorted indices), each from
-        its own stream in order, as a ``(len(rows), count)`` array."""
+        """``count`` uniforms for each selected sub-env, each from its own stream in order.
+
+        ``rows`` are sorted indices; the result is a ``(len(rows), count)`` array.
+        """
         cursor = self._cursor
         at = cursor[rows]
         short = rows[at + count > _BUFFER]
@@ -473,7 +479,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
                 process.play_until(DECISION)
             self._sync(i)
 
-    def _sync(self, i: int) -> None:
+    def _sync(self, i: int | np.integer) -> None:
         """Copy process ``i``'s clock, notification and θ into the arrays."""
         process = self._processes[i]
         self._t[i] = process.t
@@ -487,8 +493,10 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
     def _reset_rows(
         self, rows: np.ndarray, options: Mapping[str, Any] | None, act: bool = True
     ) -> None:
-        """Start new episodes in the selected sub-envs; ``act=False`` leaves nature's first
-        turn to the caller (array engine only)."""
+        """Start new episodes in the selected sub-envs (a bool mask).
+
+        ``act=False`` leaves nature's first turn to the caller (array engine only).
+        """
         kernel = self.kernel
         starts = None
         indices = np.flatnonzero(rows)
@@ -532,9 +540,11 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             self._schedule.act(self, rows)
 
     def _change_sizes(self, before: np.ndarray, after: np.ndarray) -> np.ndarray:
-        """Per-parameter change sizes of rows, as :meth:`Params.change_sizes` computes them:
+        """Per-parameter change sizes of rows, as :meth:`Params.change_sizes` computes them.
+
         ``|after - before|`` for a scalar, half the sum of the elements' (left to right) for a
-        probability vector."""
+        probability vector.
+        """
         difference = np.abs(after - before)
         if self._all_scalar:
             return difference

@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium import spaces
-
 from ns_pz.envs.registry import make_gym, make_vec
+
 from ns_pz.errors import ResetNeeded
 from ns_pz.monitor.monitors import Monitor
 from ns_pz.nature import (
@@ -72,6 +72,7 @@ def _same(batch: dict[str, np.ndarray], singles: list[dict[str, Any]]) -> None:
 @pytest.mark.parametrize("level", ["none", "basic", "detailed"])
 @pytest.mark.parametrize(("env_id", "nature", "engine"), CASES)
 def test_vector_equals_single_views(env_id: str, nature: Any, engine: str, level: str) -> None:
+    """Same seeds, same actions: same observations, rewards and ends (NEXT_STEP autoreset)."""
     n, seed = 4, 11
     vec = make_vec(env_id, n, nature=nature, notification=level, max_episode_steps=40)
     assert vec.engine == engine
@@ -104,6 +105,7 @@ def test_vector_equals_single_views(env_id: str, nature: Any, engine: str, level
 
 
 def test_same_step_autoreset_matches_single_views() -> None:
+    """SAME_STEP: the final observation in the info, the next episode's first in the batch."""
     n = 3
     vec = make_vec("ns_pz/FrozenLake-v0", n, nature=SLIP, autoreset_mode="SameStep")
     views = [make_gym("ns_pz/FrozenLake-v0", nature=SLIP) for _ in range(n)]
@@ -127,6 +129,8 @@ def test_same_step_autoreset_matches_single_views() -> None:
 
 
 def test_engine_falls_back_to_processes_for_other_monitors() -> None:
+    """A monitor other than the oracle runs per sub-env, and is obeyed."""
+
     class Quiet(Monitor):
         needs_observation = False
 
@@ -141,6 +145,7 @@ def test_engine_falls_back_to_processes_for_other_monitors() -> None:
 
 
 def test_bad_arguments_are_refused() -> None:
+    """Each bad argument gets an error naming it."""
     with pytest.raises(ValueError, match="num_envs=0 must be >= 1"):
         make_vec("ns_pz/CartPole-v0", 0)
     with pytest.raises(TypeError, match="num_envs=2.0 must be an int"):
@@ -160,6 +165,7 @@ def test_bad_arguments_are_refused() -> None:
 
 
 def test_observations_are_fresh_and_in_the_space() -> None:
+    """Observations lie in the batched space and are the caller's to modify."""
     vec = make_vec("ns_pz/CartPole-v0", 3, nature=CARTPOLE, notification="detailed")
     obs, _ = vec.reset(seed=3)
     obs, *_ = vec.step(np.array([1, 0, 1]))
@@ -173,6 +179,7 @@ def test_observations_are_fresh_and_in_the_space() -> None:
 
 
 def test_sb3_adapter_steps_without_a_loop() -> None:
+    """SB3VecEnv needs SAME_STEP and reports terminal observations SB3's way."""
     pytest.importorskip("stable_baselines3")
     from ns_pz.sb3_vec import SB3VecEnv
 
