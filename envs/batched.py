@@ -140,13 +140,18 @@ class SlipGridKernel(ArrayKernel):
     def __init__(self, family: SlipGridFamily) -> None:
         super().__init__(family, state_shape=(), state_dtype=np.int64)
         next_states, rewards, terminals = family._structure
-        self._next = next_states
-        self._rewards = rewards
-        self._terminals = terminals
-        count = next_states.shape[2]
+        self._next = next_states.ravel()
+        self._rewards = rewards.ravel()
+        self._terminals = terminals.ravel()
+        self._actions, count = next_states.shape[1:]
         slices = {spec.name: start for spec, start, _ in family.params_cls.flat_layout()}
         starts = np.array([slices[name] for name in family._slip_param], np.int64)
         self._columns = starts[:, None] + np.arange(count)
+        self._one_vector = (
+            slice(int(starts[0]), int(starts[0]) + count)
+            if len(set(starts.tolist())) == 1
+            else None
+        )
         self._start_states = np.array(family.start_states, np.int64)
         self._start_cumulative = np.cumsum(family._start_probs)
 
@@ -160,19 +165,20 @@ class SlipGridKernel(ArrayKernel):
         self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Sample one slip outcome per row with that row's θ."""
-        rows = np.arange(len(states))[:, None]
-        probs = theta[rows, self._columns[states]]
+        one = self._one_vector
+        if one is not None:  # one slip vector for every cell: a column slice
+            probs = theta[:, one]
+        else:
+            probs = theta[np.arange(len(states))[:, None], self._columns[states]]
         cumulative = np.cumsum(probs, axis=1)
-        k = (cumulative <= uniforms[:, None]).sum(1)
-        short = k == probs.shape[1]
-        if short.any():  # rounding: the last outcome of positive probability, as the scalar step
+        k = np.count_nonzero(cumulative <= uniforms[:, None], axis=1)
+        count = probs.shape[1]
+        if k.max() == count:  # rounding: the last outcome of positive probability, as `step`
+            short = k == count
             positive = probs[short] > 0.0
-            k[short] = positive.shape[1] - 1 - np.argmax(positive[:, ::-1], axis=1)
-        return (
-            self._next[states, actions, k],
-            self._rewards[states, actions, k],
-            self._terminals[states, actions, k],
-        )
+            k[short] = count - 1 - np.argmax(positive[:, ::-1], axis=1)
+        flat = (states * self._actions + actions) * count + k
+        return self._next[flat], self._rewards[flat], self._terminals[flat]
 
     def observe(self, states: np.ndarray) -> np.ndarray:
         """The cell indices."""

@@ -196,3 +196,23 @@ def test_sb3_adapter_steps_without_a_loop() -> None:
             done_seen = True
             assert infos[i]["terminal_observation"]["state"].shape == (4,)
     assert done_seen
+
+
+def test_grid_kernel_takes_the_last_positive_outcome_when_rounding_leaves_u_above_the_sum() -> None:
+    """θ summing a hair below 1 and u above the sum: the scalar step's choice, not index K."""
+    from ns_pz.envs.batched import SlipGridKernel
+    from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
+
+    family = FrozenLakeFamily()
+    theta = FrozenLakeParams(slip=(0.5, 0.5 - 5e-9, 0.0))
+    u = 1.0 - 1e-9
+
+    class Fixed:
+        def random(self) -> float:
+            return u
+
+    expected = family.step(6, 2, theta, Fixed())  # type: ignore[arg-type]
+    states, rewards, terminals = SlipGridKernel(family).step(
+        np.array([6]), np.array([2]), np.array([theta.flat_values()]), np.array([u])
+    )
+    assert (int(states[0]), float(rewards[0]), bool(terminals[0])) == expected
