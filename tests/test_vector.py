@@ -204,7 +204,7 @@ def test_grid_kernel_takes_the_last_positive_outcome_when_rounding_leaves_u_abov
     from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
 
     family = FrozenLakeFamily()
-    theta = FrozenLakeParams(slip=(0.5, 0.5 - 5e-9, 0.0))
+    theta = FrozenLakeParams(slip=(1.0 - 5e-9, 0.0, 0.0))
     u = 1.0 - 1e-9
 
     class Fixed:
