@@ -216,3 +216,22 @@ def test_grid_kernel_takes_the_last_positive_outcome_when_rounding_leaves_u_abov
         np.array([6]), np.array([2]), np.array([theta.flat_values()]), np.array([u])
     )
     assert (int(states[0]), float(rewards[0]), bool(terminals[0])) == expected
+
+
+@pytest.mark.parametrize("nature", [CARTPOLE, RandomNature(0.05)])
+def test_reset_options_set_theta0_as_in_the_single_view(nature: Any) -> None:
+    """``reset(options={"params": ...})`` starts every sub-env from that θ_0, in both engines."""
+    import ns_pz
+
+    options = {"params": {"masspole": 0.5}}
+    vec = ns_pz.make_vec("ns_pz/CartPole-v0", 2, nature=nature, notification="detailed")
+    views = [make_gym("ns_pz/CartPole-v0", nature=nature, notification="detailed") for _ in "ab"]
+    obs, _ = vec.reset(seed=1, options=options)
+    singles = [view.reset(seed=1 + i, options=options)[0] for i, view in enumerate(views)]
+    _same(obs, singles)
+    for _ in range(5):
+        obs, *_ = vec.step(np.array([0, 1]))
+        singles = [view.step(a)[0] for view, a in zip(views, (0, 1), strict=True)]
+        _same(obs, singles)
+    expected = [view.unwrapped.process.theta.flat_values() for view in views]
+    assert vec.thetas().tolist() == expected
