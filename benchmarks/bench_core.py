@@ -461,8 +461,8 @@ def main() -> None:
         for name in VECTOR_ENVS:
             if name in args.envs:
                 measure_vector(name, num_envs, 20 if args.smoke else args.vector_steps, rounds)
-    if args.only in (None, "sb3") and args.sb3_steps:
-        measure_sb3(4 if args.smoke else 8, 512 if args.smoke else args.sb3_steps)
+    if args.only in (None, "sb3") and args.sb3_steps and not args.smoke:
+        measure_sb3(8, args.sb3_steps)
     if args.only not in (None, "single"):
         return
     print(
