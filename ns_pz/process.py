@@ -332,6 +332,11 @@ class NSProcess:
             if self.last_change is None:
                 return self.no_change, self.no_change
             truth = self.last_sizes()
+            if type(monitor) is OracleMonitor:  # its notification is the truth: no checks needed
+                flags = tuple([1 if size > 0.0 else 0 for size in truth])
+                if 1 not in flags:
+                    return self.no_change, self.no_change
+                return flags, truth if level.shows_sizes else self.no_change
         observation = self.build.monitor(self) if monitor.needs_observation else None
         flags, sizes = monitor.notify(
             observation,
@@ -446,8 +451,10 @@ class NSProcess:
             turn = self.turn
             if turn == NATURE:
                 self.nature_turn(self.scripted_proposal())
-            elif turn == MONITOR:
-                self.monitor_turn(*self.scripted_notification())
+            elif turn == MONITOR:  # monitor_turn without re-checking the masked notification
+                self.notice = self.scripted_notification()
+                self._pending = None
+                self.turn = DECISION
             elif decide is None:
                 return total, count
             else:
