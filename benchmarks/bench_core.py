@@ -77,8 +77,14 @@ def time_gym(env: gym.Env, actions: list[int], seed: int) -> float:
     return total / n
 
 
-def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) -> float:
-    """Seconds per AEC cycle (nature, monitor, agent turns), resets and dead steps excluded."""
+def time_game(
+    game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool, policies: bool = False
+) -> float:
+    """Seconds per AEC cycle (nature, monitor, agent turns), resets and dead steps excluded.
+
+    Nature and monitor play a fixed tiny Δθ and a quiet notification, or with ``policies`` the
+    game's own nature and monitor through ``policy_action`` (as users run the game).
+    """
     theta_size = game.action_space(ns_pz.NATURE).shape[0]
     # A tiny valid Δθ: off the first flat element, spread over the others for a vector.
     nudge = np.zeros(theta_size)
@@ -90,7 +96,7 @@ def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) 
         "delta_change": np.zeros(len(game.family.params_cls.names()), np.float32),
     }
     game.reset(seed=seed)
-    step, obs = game.step, game.observe
+    step, obs, policy = game.step, game.observe, game.policy_action
     total = 0.0
     i = 0
     n = len(actions)
@@ -99,45 +105,15 @@ def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) 
         while i < n:
             if observe:
                 obs(ns_pz.NATURE)
-            step(nudge)
+            step(policy(ns_pz.NATURE) if policies else nudge)
             if observe:
                 obs(ns_pz.MONITOR)
-            step(quiet)
+            step(policy(ns_pz.MONITOR) if policies else quiet)
             if observe:
                 obs(ns_pz.DECISION)
             step(actions[i])
             i += 1
             if game.terminations[ns_pz.NATURE] or game.truncations[ns_pz.NATURE]:
-                break
-        total += time.perf_counter() - start
-        if i < n:
-            game.reset()
-    return total / n
-
-
-def time_user_game(game: ns_pz.NSGame, actions: list, seed: int) -> float:
-    """Seconds per cycle as users run the game, resets excluded.
-
-    Nature and monitor act through ``policy_action``; ``observe()`` is called for every agent
-    before it acts.
-    """
-    game.reset(seed=seed)
-    step, obs, policy = game.step, game.observe, game.policy_action
-    nature, monitor, agent = ns_pz.NATURE, ns_pz.MONITOR, ns_pz.DECISION
-    total = 0.0
-    i = 0
-    n = len(actions)
-    while i < n:
-        start = time.perf_counter()
-        while i < n:
-            obs(nature)
-            step(policy(nature))
-            obs(monitor)
-            step(policy(monitor))
-            obs(agent)
-            step(actions[i])
-            i += 1
-            if game.terminations[nature] or game.truncations[nature]:
                 break
         total += time.perf_counter() - start
         if i < n:
