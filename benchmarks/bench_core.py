@@ -186,7 +186,9 @@ def cases(name: str) -> dict[str, Runner]:
     runners["AEC cycle, change every step"] = lambda a: time_game(game, a, 0, observe=False)
     runners["AEC cycle + observe, every step"] = lambda a: time_game(game, a, 0, observe=True)
     user_game = ns_pz.make(ns_id, nature=every, notification="detailed")
-    runners["game: policy_action + observe, detailed"] = lambda a: time_user_game(user_game, a, 0)
+    runners["game: policy_action + observe, detailed"] = lambda a: time_game(
+        user_game, a, 0, observe=True, policies=True
+    )
     if base_id in gym.registry:
         runners.update(
             wrapper_cases(
