@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 import pytest
 from gymnasium import spaces
-from ns_pz.envs.registry import make_gym, make_vec
+from ns_pz.envs.registry import make_gym, make_vec, registered_envs
 
 from ns_pz.errors import ResetNeeded
 from ns_pz.monitor.monitors import Monitor
@@ -235,3 +235,16 @@ def test_reset_options_set_theta0_as_in_the_single_view(nature: Any) -> None:
         _same(obs, singles)
     expected = [view.unwrapped.process.theta.flat_values() for view in views]
     assert vec.thetas().tolist() == expected
+
+
+@pytest.mark.parametrize("env_id", registered_envs())
+def test_every_registered_id_batches(env_id: str) -> None:
+    """make_vec builds every registered id; observations stay in the batched space."""
+    vec = make_vec(env_id, 3, notification="detailed")
+    obs, _ = vec.reset(seed=0)
+    assert vec.observation_space.contains(obs)
+    vec.action_space.seed(0)
+    for _ in range(5):
+        obs, rewards, terminated, truncated, _ = vec.step(vec.action_space.sample())
+        assert vec.observation_space.contains(obs)
+        assert rewards.shape == terminated.shape == truncated.shape == (3,)
