@@ -34,8 +34,12 @@ from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
+from ns_pz.envs.registry import make_vec
 
 import ns_pz
+import ns_pz.compat.schedulers as compat_schedulers
+import ns_pz.compat.update_functions as compat_updates
+import ns_pz.compat.wrappers as compat_wrappers
 from ns_pz.nature import (
     ContinuousScheduler,
     DiscreteScheduler,
@@ -79,8 +83,14 @@ def time_gym(env: gym.Env, actions: list[int], seed: int) -> float:
     return total / n
 
 
-def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) -> float:
-    """Seconds per AEC cycle (nature, monitor, agent turns), resets and dead steps excluded."""
+def time_game(
+    game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool, policies: bool = False
+) -> float:
+    """Seconds per AEC cycle (nature, monitor, agent turns), resets and dead steps excluded.
+
+    Nature and monitor play a fixed tiny Δθ and a quiet notification, or with ``policies`` the
+    game's own nature and monitor through ``policy_action`` (as users run the game).
+    """
     theta_size = game.action_space(ns_pz.NATURE).shape[0]
     # A tiny valid Δθ: off the first flat element, spread over the others for a vector.
     nudge = np.zeros(theta_size)
@@ -92,7 +102,7 @@ def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) 
         "delta_change": np.zeros(len(game.family.params_cls.names()), np.float32),
     }
     game.reset(seed=seed)
-    step, obs = game.step, game.observe
+    step, obs, policy = game.step, game.observe, game.policy_action
     total = 0.0
     i = 0
     n = len(actions)
@@ -101,10 +111,10 @@ def time_game(game: ns_pz.NSGame, actions: list[int], seed: int, observe: bool) 
         while i < n:
             if observe:
                 obs(ns_pz.NATURE)
-            step(nudge)
+            step(policy(ns_pz.NATURE) if policies else nudge)
             if observe:
                 obs(ns_pz.MONITOR)
-            step(quiet)
+            step(policy(ns_pz.MONITOR) if policies else quiet)
             if observe:
                 obs(ns_pz.DECISION)
             step(actions[i])
@@ -209,18 +219,25 @@ class SyncedMujoco(gym.Wrapper):
         return observation, reward, terminated, self.steps >= MUJOCO_EPISODE, info
 
 
+def scripted(bench: Bench, scheduler: object) -> ScriptedNature:
+    """Nature moving ``bench.param`` by ``bench.k`` whenever ``scheduler`` fires."""
+    return scripted_param(bench, bench.param, scheduler)
+
+
+def scripted_param(bench: Bench, param: str, scheduler: object) -> ScriptedNature:
+    """Nature moving ``param`` by ``bench.k`` whenever ``scheduler`` fires."""
+    if param == "slip":
+        return ScriptedNature({"slip": DistributionDecrementUpdate(scheduler, k=bench.k)})
+    return ScriptedNature({param: IncrementUpdate(scheduler, k=bench.k)})
+
+
 def cases(name: str) -> dict[str, Runner]:
     """Every timed variant for one environment of :data:`ENVS`."""
     bench = ENVS.get(name) or MUJOCO_ENVS[name]
-    base_id, ns_id, param = bench.base_id, bench.ns_id, bench.param
+    base_id, ns_id = bench.base_id, bench.ns_id
 
-    def rule(scheduler):  # noqa: ANN001, ANN202
-        if param == "slip":
-            return DistributionDecrementUpdate(scheduler, k=bench.k)
-        return IncrementUpdate(scheduler, k=bench.k)
-
-    every = ScriptedNature({param: rule(ContinuousScheduler(start=0))})
-    once = ScriptedNature({param: rule(DiscreteScheduler({1}))})
+    every = scripted(bench, ContinuousScheduler(start=0))
+    once = scripted(bench, DiscreteScheduler({1}))
     limit = {}
     if name in MUJOCO_ENVS:  # short episodes, raw started where the views start
         limit = {"max_episode_steps": MUJOCO_EPISODE}
@@ -229,50 +246,88 @@ def cases(name: str) -> dict[str, Runner]:
         raw = gym.make(base_id).unwrapped
     else:  # the Bridge without NS-Gym: the stationary ns_pz view stands in
         raw = gym.make(ns_id).unwrapped
-    view_every = gym.make(ns_id, nature=every, **limit).unwrapped
     view_once = gym.make(ns_id, nature=once, **limit).unwrapped
     game = ns_pz.make(ns_id, **limit)
-    runners: dict[str, Runner] = {
-        "raw": lambda a: time_gym(raw, a, 0),
-        "view, change every step": lambda a: time_gym(view_every, a, 0),
-        "view, single change": lambda a: time_gym(view_once, a, 0),
-        "AEC cycle, change every step": lambda a: time_game(game, a, 0, observe=False),
-        "AEC cycle + observe, every step": lambda a: time_game(game, a, 0, observe=True),
-    }
+    runners: dict[str, Runner] = {"raw": lambda a: time_gym(raw, a, 0)}
+    for level in LEVELS:
+        view = gym.make(ns_id, nature=every, notification=level, **limit).unwrapped
+        runners[f"view {level}, change every step"] = _timer(time_gym, view)
+    runners["view, single change"] = lambda a: time_gym(view_once, a, 0)
+    runners["AEC cycle, change every step"] = lambda a: time_game(game, a, 0, observe=False)
+    runners["AEC cycle + observe, every step"] = lambda a: time_game(game, a, 0, observe=True)
+    user_game = ns_pz.make(ns_id, nature=every, notification="detailed", **limit)
+    runners["game: policy_action + observe, detailed"] = lambda a: time_game(
+        user_game, a, 0, observe=True, policies=True
+    )
     if bench.mass:
-        masses = ScriptedNature({bench.mass: rule(ContinuousScheduler(start=0))})
+        masses = scripted_param(bench, bench.mass, ContinuousScheduler(start=0))
         view_mass = gym.make(ns_id, nature=masses, **limit).unwrapped
         runners["view, mass every step"] = lambda a: time_gym(view_mass, a, 0)
+    if base_id in gym.registry and name in ENVS:
+        runners.update(
+            wrapper_cases(
+                name, "compat", compat_schedulers, compat_updates, compat_wrappers, levels=True
+            )
+        )
     if ng_wrappers is not None and name in ENVS:
         runners.update(nsgym_cases(name))
     return runners
 
 
-def nsgym_cases(name: str) -> dict[str, Runner]:
-    """NS-Gym 1.0.12 wrappers on the same schedules."""
+LEVELS = ("none", "basic", "detailed")
+NOTIFY = {"none": (False, False), "basic": (True, False), "detailed": (True, True)}
+"""NS-Gym's (change_notification, delta_change_notification) for each level."""
+
+
+def _timer(timer: Callable[..., float], env: object) -> Runner:
+    return lambda a: timer(env, a, 0)
+
+
+def wrapper_cases(
+    name: str, label: str, schedulers: object, updates: object, wrappers: object, levels: bool
+) -> dict[str, Runner]:
+    """NS-Gym's wrapper API (NS-Gym itself or ``ns_pz.compat``) on the same schedules.
+
+    With ``levels``, a change every step at each notification level; without, a change every
+    step and a single change, detailed.
+    """
     bench = ENVS[name]
     base_id = bench.base_id
 
-    def build(scheduler_fn: Callable[[], object]) -> gym.Env:
+    def build(scheduler_fn: Callable[[], object], level: str) -> gym.Env:
+        change, delta = NOTIFY[level]
+        flags = {"change_notification": change, "delta_change_notification": delta}
         if bench.slip is None:
-            update = ng_updates.IncrementUpdate(scheduler_fn(), k=bench.k)
-            return ng_wrappers.NSClassicControlWrapper(
-                gym.make(base_id), {bench.nsgym_param: update}
+            update = updates.IncrementUpdate(scheduler_fn(), k=bench.k)  # type: ignore[attr-defined]
+            return wrappers.NSClassicControlWrapper(  # type: ignore[attr-defined]
+                gym.make(base_id), {bench.nsgym_param: update}, **flags
             )
-        update = ng_updates.DistributionDecrementUpdate(scheduler_fn(), k=bench.k)
+        update = updates.DistributionDecrementUpdate(scheduler_fn(), k=bench.k)  # type: ignore[attr-defined]
         wrapper = {
-            "FrozenLake": ng_wrappers.NSFrozenLakeWrapper,
-            "CliffWalking": ng_wrappers.NSCliffWalkingWrapper,
-            "Bridge": ng_wrappers.NSBridgeWrapper,
+            "FrozenLake": "NSFrozenLakeWrapper",
+            "CliffWalking": "NSCliffWalkingWrapper",
+            "Bridge": "NSBridgeWrapper",
         }[name]
-        return wrapper(gym.make(base_id), {"P": update}, initial_prob_dist=list(bench.slip))
+        return getattr(wrappers, wrapper)(
+            gym.make(base_id), {"P": update}, initial_prob_dist=list(bench.slip), **flags
+        )
 
-    every = build(ng_schedulers.ContinuousScheduler)
-    once = build(lambda: ng_schedulers.DiscreteScheduler({1}))
+    continuous = schedulers.ContinuousScheduler  # type: ignore[attr-defined]
+    if levels:
+        return {
+            f"{label} wrapper {level}, every step": _timer(time_gym, build(continuous, level))
+            for level in LEVELS
+        }
+    once = build(lambda: schedulers.DiscreteScheduler({1}), "detailed")  # type: ignore[attr-defined]
     return {
-        "NS-Gym, change every step": lambda a: time_gym(every, a, 0),
-        "NS-Gym, single change": lambda a: time_gym(once, a, 0),
+        f"{label} detailed, change every step": _timer(time_gym, build(continuous, "detailed")),
+        f"{label} detailed, single change": _timer(time_gym, once),
     }
+
+
+def nsgym_cases(name: str) -> dict[str, Runner]:
+    """NS-Gym's wrappers on the same schedules (needs ``ns_gym`` importable)."""
+    return wrapper_cases(name, "NS-Gym", ng_schedulers, ng_updates, ng_wrappers, levels=False)
 
 
 def random_actions(space: gym.Space, steps: int) -> list:
@@ -350,6 +405,86 @@ def measure_planning(name: str, repeats: int) -> None:
         print(f"  {name} NS-Gym get_planning_env(): {ng_copy * 1e6:.1f} us")
 
 
+VECTOR_ENVS = ("CartPole", "FrozenLake", "CliffWalking", "Bridge", "MountainCar")
+
+
+def time_vector(env: gym.vector.VectorEnv, actions: list[np.ndarray]) -> float:
+    """Seconds per env-step of a vector env over batches of actions (autoreset included)."""
+    env.reset(seed=0)
+    step = env.step
+    start = time.perf_counter()
+    for batch in actions:
+        step(batch)
+    return (time.perf_counter() - start) / (len(actions) * env.num_envs)
+
+
+def measure_vector(name: str, num_envs: int, steps: int, rounds: int) -> None:
+    """µs per env-step of the batched env against Gymnasium's vector envs, change every step."""
+    from gymnasium.envs.classic_control.cartpole import CartPoleVectorEnv
+
+    bench = ENVS[name]
+    every = scripted(bench, ContinuousScheduler(start=0))
+    envs: dict[str, gym.vector.VectorEnv] = {}
+    if name == "CartPole":
+        envs["Gymnasium CartPoleVectorEnv (raw)"] = CartPoleVectorEnv(num_envs=num_envs)
+    if bench.base_id in gym.registry:
+        envs["Gymnasium SyncVectorEnv (raw)"] = gym.make_vec(
+            bench.base_id, num_envs, vectorization_mode="sync"
+        )
+    for level in LEVELS:
+        batched = make_vec(bench.ns_id, num_envs, nature=every, notification=level)
+        envs[f"ns_pz make_vec {level} ({batched.engine})"] = batched
+    envs["SyncVectorEnv of the view, detailed"] = gym.make_vec(
+        bench.ns_id, num_envs, vectorization_mode="sync", nature=every, notification="detailed"
+    )
+    space = envs[f"ns_pz make_vec detailed ({batched.engine})"].action_space
+    space.seed(0)
+    actions = [space.sample() for _ in range(steps)]
+    seconds: dict[str, list[float]] = {case: [] for case in envs}
+    for _ in range(rounds):
+        for case, env in envs.items():
+            seconds[case].append(time_vector(env, actions))
+    first = next(iter(envs))
+    print(f"\n{name}, N={num_envs}: {steps} batch steps x {rounds} rounds (median)")
+    print(f"  {'case':40s} {'us/env-step':>11s} {'x first':>8s}")
+    for case, times in seconds.items():
+        ratio = statistics.median(t / r for t, r in zip(times, seconds[first], strict=True))
+        print(f"  {case:40s} {statistics.median(times) * 1e6:11.3f} {ratio:8.2f}")
+
+
+def measure_sb3(num_envs: int, timesteps: int) -> None:
+    """SB3 PPO steps per second on a changing CartPole: the batched env vs ``make_vec_env``."""
+    try:
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.env_util import make_vec_env
+
+        from ns_pz.sb3_vec import SB3VecEnv
+    except ImportError:
+        print("\nSB3 PPO: stable-baselines3 not installed (skipped)")
+        return
+    every = scripted(ENVS["CartPole"], ContinuousScheduler(start=0))
+    ns_id = "ns_pz/CartPole-v0"
+    envs = {
+        "SB3VecEnv(make_vec)": SB3VecEnv(
+            make_vec(
+                ns_id, num_envs, nature=every, notification="detailed", autoreset_mode="SameStep"
+            )
+        ),
+        "make_vec_env of the view": make_vec_env(
+            ns_id, n_envs=num_envs, env_kwargs={"nature": every, "notification": "detailed"}
+        ),
+    }
+    print(
+        f"\nSB3 PPO (MultiInputPolicy, cpu), changing CartPole, {num_envs} envs, {timesteps} steps"
+    )
+    for label, env in envs.items():
+        model = PPO("MultiInputPolicy", env, n_steps=128, seed=0, device="cpu", verbose=0)
+        start = time.perf_counter()
+        model.learn(total_timesteps=timesteps)
+        rate = timesteps / (time.perf_counter() - start)
+        print(f"  {label:28s} {rate:9.0f} steps/s")
+
+
 def _best_of(fn: Callable[[], object], rounds: int = 5) -> float:
     best = float("inf")
     for _ in range(rounds):
@@ -374,8 +509,23 @@ def main() -> None:
         choices=sorted(MUJOCO_ENVS),
         help="also time these MuJoCo tasks (no name: all), at a tenth of --steps",
     )
+    parser.add_argument("--num-envs", type=int, default=256, help="sub-envs of vector envs")
+    parser.add_argument("--vector-steps", type=int, default=200, help="batch steps per round")
+    parser.add_argument("--sb3-steps", type=int, default=20_000, help="PPO steps (0: skip)")
+    parser.add_argument(
+        "--only", choices=("single", "vector", "sb3"), help="run one part of the benchmark"
+    )
     args = parser.parse_args()
     steps, rounds = (300, 2) if args.smoke else (args.steps, args.rounds)
+    num_envs = 8 if args.smoke else args.num_envs
+    if args.only in (None, "vector"):
+        for name in VECTOR_ENVS:
+            if name in args.envs:
+                measure_vector(name, num_envs, 20 if args.smoke else args.vector_steps, rounds)
+    if args.only in (None, "sb3") and args.sb3_steps and not args.smoke:
+        measure_sb3(8, args.sb3_steps)
+    if args.only not in (None, "single"):
+        return
     print(
         f"ns_pz {ns_pz.__version__}, gymnasium {gym.__version__}, "
         f"NS-Gym {'present' if ng_wrappers is not None else 'not installed (skipped)'}"

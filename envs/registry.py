@@ -33,6 +33,7 @@ from ns_pz.errors import UnknownEnvironment
 from ns_pz.family import EnvFamily
 from ns_pz.game import NSGame
 from ns_pz.regret import default_reference
+from ns_pz.vector import NSVectorEnv
 from ns_pz.views import NSGymEnv
 
 _NS_KWARGS = {
@@ -45,6 +46,7 @@ _NS_KWARGS = {
     "render_mode",
 }
 _VIEW_KWARGS = _NS_KWARGS | {"ground_truth_info"}
+_VECTOR_KWARGS = (_NS_KWARGS - {"render_mode"}) | {"autoreset_mode"}
 _GAME_KWARGS = _NS_KWARGS | {
     "nature_reward",
     "regret_reference",
@@ -154,6 +156,21 @@ def make_gym(env_id: str, **kwargs: Any) -> NSGymEnv:
     ns_kwargs, family_kwargs = _split(kwargs, _VIEW_KWARGS)
     ns_kwargs.setdefault("max_episode_steps", env_spec.max_episode_steps)
     return NSGymEnv(env_spec.build_family(family_kwargs, _VIEW_KWARGS), **ns_kwargs)
+
+
+def make_vec(env_id: str, num_envs: int = 1, **kwargs: Any) -> NSVectorEnv:
+    """The native vector env of a registered environment: ``num_envs`` views stepped together.
+
+    Keyword arguments are those of :func:`make_gym` (without ``render_mode`` and
+    ``ground_truth_info``) plus ``autoreset_mode``; see :class:`~ns_pz.vector.NSVectorEnv`.
+    """
+    from ns_pz.envs.batched import kernel_for
+
+    env_spec = spec(env_id)
+    ns_kwargs, family_kwargs = _split(kwargs, _VECTOR_KWARGS)
+    ns_kwargs.setdefault("max_episode_steps", env_spec.max_episode_steps)
+    family = env_spec.build_family(family_kwargs, _VECTOR_KWARGS)
+    return NSVectorEnv(family, num_envs, kernel=kernel_for(family), **ns_kwargs)
 
 
 def _gymnasium_entry_point(env_id: str, **kwargs: Any) -> NSGymEnv:

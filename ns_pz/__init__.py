@@ -25,9 +25,10 @@ from ns_pz.game import DECISION, MONITOR, NATURE, NSGame
 from ns_pz.monitor import Monitor, NotificationLevel, OracleMonitor
 from ns_pz.params import Params, ParamSpec, scalar, simplex
 from ns_pz.process import GroundTruth
+from ns_pz.vector import NSVectorEnv
 from ns_pz.views import NSGymEnv
 
-from ns_pz.envs.registry import make, make_gym, register, registered_envs, spec  # isort: skip
+from ns_pz.envs.registry import make, make_gym, make_vec, register, registered_envs, spec  # isort: skip
 from ns_pz.seats import single_agent  # isort: skip
 
 __version__ = "0.1.0"
@@ -40,6 +41,7 @@ __all__ = [
     "Monitor",
     "NSGame",
     "NSGymEnv",
+    "NSVectorEnv",
     "NSPZError",
     "NotificationLevel",
     "OracleMonitor",
@@ -52,6 +54,7 @@ __all__ = [
     "UnknownParam",
     "make",
     "make_gym",
+    "make_vec",
     "register",
     "registered_envs",
     "scalar",

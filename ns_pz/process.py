@@ -334,6 +334,11 @@ class NSProcess:
             if self.last_change is None and monitor.quiet_without_change:
                 return self.no_change, self.no_change
             truth = self.last_sizes()
+            if type(monitor) is OracleMonitor:  # its notification is the truth: no checks needed
+                flags = tuple([1 if size > 0.0 else 0 for size in truth])
+                if 1 not in flags:
+                    return self.no_change, self.no_change
+                return flags, truth if level.shows_sizes else self.no_change
         observation = self.build.monitor(self) if monitor.needs_observation else None
         flags, sizes = monitor.notify(
             observation,
@@ -386,10 +391,14 @@ class NSProcess:
         before, after = self.last_change
         return after.change_sizes(before)
 
-    def transition(self, action: Any) -> tuple[float, bool, bool]:
+    def transition(
+        self, action: Any, outcome: tuple[State, float, bool] | None = None
+    ) -> tuple[float, bool, bool]:
         """The agent's turn: draw the next state under the current θ and advance the clock.
 
-        ``action`` must already be checked (``family.check_action``).
+        ``action`` must already be checked (``family.check_action``). ``outcome``, if given, is
+        ``(next state, reward, terminal)`` already drawn under the current θ by a batched copy of
+        the family's dynamics (:mod:`ns_pz.vector`); the process then only does the bookkeeping.
 
         Returns:
             ``(reward, terminated, truncated)``.
@@ -400,12 +409,14 @@ class NSProcess:
         if self.turn != DECISION or self.done:
             self.check_turn(DECISION, "the agent's turn")
         self.last_state = self.state
-        self.state, reward, terminated = self.family.step(
-            self.state,
-            action,
-            self.theta,
-            self.env_rng,  # type: ignore[arg-type]
-        )
+        if outcome is None:
+            outcome = self.family.step(
+                self.state,
+                action,
+                self.theta,
+                self.env_rng,  # type: ignore[arg-type]
+            )
+        self.state, reward, terminated = outcome
         self.last_action = action
         self.last_reward = reward
         theta = self.theta
@@ -442,8 +453,10 @@ class NSProcess:
             turn = self.turn
             if turn == NATURE:
                 self.nature_turn(self.scripted_proposal())
-            elif turn == MONITOR:
-                self.monitor_turn(*self.scripted_notification())
+            elif turn == MONITOR:  # monitor_turn without re-checking the masked notification
+                self.notice = self.scripted_notification()
+                self._pending = None
+                self.turn = DECISION
             elif decide is None:
                 return total, count
             else:

@@ -14,7 +14,17 @@ def test_core_benchmark_smoke_run():
     out = subprocess.run(
         [sys.executable, str(BENCH), "--smoke"], capture_output=True, text=True, check=True
     ).stdout
-    for case in ("view, change every step", "AEC cycle, change every step", "save + restore"):
+    cases = (
+        "view none, change every step",
+        "view detailed, change every step",
+        "game: policy_action + observe, detailed",
+        "compat wrapper detailed, every step",
+        "AEC cycle, change every step",
+        "ns_pz make_vec detailed (arrays)",
+        "Gymnasium CartPoleVectorEnv (raw)",
+        "save + restore",
+    )
+    for case in cases:
         assert case in out
 
 

@@ -1,0 +1,201 @@
+"""Batched dynamics: a family's ``step`` as numpy array functions of N states and N θ.
+
+Each kernel computes, for a batch of sub-environments at once, exactly what the family's scalar
+``step`` computes for one: the same floating-point operations in the same order, so results are
+equal bit for bit (the vector env's tests compare them with N single views). θ arrives as an
+``(N, D)`` float64 array of rows laid out as :meth:`ns_pz.params.Params.flat`.
+
+Randomness: a kernel declares how many uniform doubles a transition and a start state consume
+(:attr:`~ns_pz.vector.BatchKernel.step_uniforms`, ``reset_uniforms``); the vector env draws them
+from each sub-environment's own generator, in the order the scalar family would (NumPy's
+``uniform(low, high)`` is ``low + (high - low) * u`` of one such double). CartPole and
+MountainCar draw only start states, the grid worlds one uniform per transition and per start.
+
+:func:`kernel_for` picks the kernel of a family; families without one (Acrobot,
+MountainCarContinuous, Pendulum, custom families) get :class:`~ns_pz.vector.LoopKernel`, which
+calls the scalar ``step`` per sub-environment: correct, not fast.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from ns_pz.envs.cartpole import THETA_THRESHOLD_RADIANS, X_THRESHOLD, CartPoleFamily
+from ns_pz.envs.grid import SlipGridFamily
+from ns_pz.envs.mountain_car import (
+    GOAL_POSITION,
+    MAX_POSITION,
+    MAX_SPEED,
+    MIN_POSITION,
+    MountainCarFamily,
+)
+
+from ns_pz.family import EnvFamily
+from ns_pz.vector import ArrayKernel, BatchKernel, LoopKernel
+
+
+class CartPoleKernel(ArrayKernel):
+    """CartPole: states ``(N, 4)`` float64.
+
+    θ columns: gravity, masscart, masspole, length, force_mag, tau.
+    """
+
+    reset_uniforms = 4
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Uniform in [-0.05, 0.05]^4: ``low + (high - low) * u``, as NumPy's ``uniform``."""
+        return _uniform(-0.05, 0.05, uniforms)
+
+    def __init__(self, family: CartPoleFamily) -> None:
+        super().__init__(family, state_shape=(4,), state_dtype=np.float64)
+        self._euler = family.kinematics_integrator == "euler"
+
+    def step(
+        self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One integration step for every row (the scalar step's operations, in its order)."""
+        x, x_dot, angle, angle_dot = states.T
+        gravity, masscart, masspole, length, force_mag, tau = theta.T
+        force = np.where(actions == 1, force_mag, -force_mag)
+        cos = np.cos(angle)
+        sin = np.sin(angle)
+        total_mass = masspole + masscart
+        polemass_length = masspole * length
+        temp = (force + polemass_length * (angle_dot * angle_dot) * sin) / total_mass
+        angle_acc = (gravity * sin - cos * temp) / (
+            length * (4.0 / 3.0 - masspole * (cos * cos) / total_mass)
+        )
+        x_acc = temp - polemass_length * angle_acc * cos / total_mass
+        out = np.empty_like(states)
+        if self._euler:
+            out[:, 0] = x + tau * x_dot
+            out[:, 1] = x_dot + tau * x_acc
+            out[:, 2] = angle + tau * angle_dot
+            out[:, 3] = angle_dot + tau * angle_acc
+        else:
+            out[:, 1] = x_dot + tau * x_acc
+            out[:, 0] = x + tau * out[:, 1]
+            out[:, 3] = angle_dot + tau * angle_acc
+            out[:, 2] = angle + tau * out[:, 3]
+        x, angle = out[:, 0], out[:, 2]
+        terminal = (
+            (x < -X_THRESHOLD)
+            | (x > X_THRESHOLD)
+            | (angle < -THETA_THRESHOLD_RADIANS)
+            | (angle > THETA_THRESHOLD_RADIANS)
+        )
+        return out, np.ones(len(states)), terminal
+
+    def observe(self, states: np.ndarray) -> np.ndarray:
+        """``[x, x_dot, angle, angle_dot]`` as float32."""
+        return states.astype(np.float32)
+
+
+class MountainCarKernel(ArrayKernel):
+    """MountainCar (discrete pushes): states ``(N, 2)``; θ columns gravity, force."""
+
+    reset_uniforms = 1
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Position uniform in [-0.6, -0.4], velocity 0 (as the family's ``initial_state``)."""
+        position = _uniform(-0.6, -0.4, uniforms[:, 0])
+        return np.stack((position, np.zeros_like(position)), axis=1)
+
+    def __init__(self, family: MountainCarFamily) -> None:
+        super().__init__(family, state_shape=(2,), state_dtype=np.float64)
+        self._family = family
+
+    def step(
+        self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The scalar step's update for every row."""
+        position, velocity = states.T
+        gravity, force = theta.T
+        velocity = velocity + ((actions - 1) * force + np.cos(3 * position) * (-gravity))
+        velocity = np.minimum(np.maximum(velocity, -MAX_SPEED), MAX_SPEED)
+        position = position + velocity
+        position = np.minimum(np.maximum(position, MIN_POSITION), MAX_POSITION)
+        velocity = np.where((position == MIN_POSITION) & (velocity < 0), 0.0, velocity)
+        terminal = (position >= GOAL_POSITION) & (velocity >= self._family.goal_velocity)
+        out = np.stack((position, velocity), axis=1)
+        return out, np.full(len(states), -1.0), terminal
+
+    def observe(self, states: np.ndarray) -> np.ndarray:
+        """``[position, velocity]`` as float32."""
+        return states.astype(np.float32)
+
+
+class SlipGridKernel(ArrayKernel):
+    """The slip grid worlds: states ``(N,)`` int64 cell indices; one uniform per transition.
+
+    The outcome of a transition is the first slip outcome whose cumulative probability exceeds
+    the uniform (cumulated left to right, as the scalar step does); if rounding leaves the sum
+    below it, the last outcome of positive probability.
+    """
+
+    step_uniforms = 1
+    reset_uniforms = 1
+
+    def __init__(self, family: SlipGridFamily) -> None:
+        super().__init__(family, state_shape=(), state_dtype=np.int64)
+        next_states, rewards, terminals = family._structure
+        self._next = next_states.ravel()
+        self._rewards = rewards.ravel()
+        self._terminals = terminals.ravel()
+        self._actions, count = next_states.shape[1:]
+        slices = {spec.name: start for spec, start, _ in family.params_cls.flat_layout()}
+        starts = np.array([slices[name] for name in family._slip_param], np.int64)
+        self._columns = starts[:, None] + np.arange(count)
+        self._one_vector = (
+            slice(int(starts[0]), int(starts[0]) + count)
+            if len(set(starts.tolist())) == 1
+            else None
+        )
+        self._start_states = np.array(family.start_states, np.int64)
+        self._start_cumulative = np.cumsum(family._start_probs)
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Start cells, one uniform each (as the family's ``initial_state``)."""
+        cumulative = self._start_cumulative
+        index = np.minimum((cumulative[None, :] <= uniforms).sum(1), len(cumulative) - 1)
+        return self._start_states[index]
+
+    def step(
+        self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Sample one slip outcome per row with that row's θ."""
+        one = self._one_vector
+        if one is not None:  # one slip vector for every cell: a column slice
+            probs = theta[:, one]
+        else:
+            probs = theta[np.arange(len(states))[:, None], self._columns[states]]
+        cumulative = np.cumsum(probs, axis=1)
+        k = np.count_nonzero(cumulative <= uniforms[:, None], axis=1)
+        count = probs.shape[1]
+        if k.max() == count:  # rounding: the last outcome of positive probability, as `step`
+            short = k == count
+            positive = probs[short] > 0.0
+            k[short] = count - 1 - np.argmax(positive[:, ::-1], axis=1)
+        flat = (states * self._actions + actions) * count + k
+        return self._next[flat], self._rewards[flat], self._terminals[flat]
+
+    def observe(self, states: np.ndarray) -> np.ndarray:
+        """The cell indices."""
+        return states.copy()
+
+
+def _uniform(low: float, high: float, uniforms: np.ndarray) -> np.ndarray:
+    """``Generator.uniform(low, high)`` from its underlying doubles: ``low + (high - low) * u``."""
+    return low + (np.float64(high) - np.float64(low)) * uniforms
+
+
+def kernel_for(family: EnvFamily) -> BatchKernel:
+    """The fastest exact kernel for ``family`` (a loop over the scalar step if none is batched)."""
+    if isinstance(family, CartPoleFamily):
+        return CartPoleKernel(family)
+    if isinstance(family, SlipGridFamily):
+        return SlipGridKernel(family)
+    if type(family) is MountainCarFamily:
+        return MountainCarKernel(family)
+    return LoopKernel(family)

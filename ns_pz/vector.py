@@ -1,0 +1,705 @@
+"""A native Gymnasium vector env: N independent NS-MDPs stepped as numpy arrays.
+
+:class:`NSVectorEnv` is what ``gymnasium.make_vec("ns_pz/<id>", num_envs=N)`` should return
+(see :func:`ns_pz.envs.registry.make_vec`). Each sub-environment is the Gymnasium view
+(:class:`ns_pz.views.NSGymEnv`) of its own NS-MDP: its own θ, its own nature and monitor memory,
+its own generators. Under the same seeds and actions it yields exactly what N single views
+yield, bit for bit (``tests/test_vector.py`` checks it), with Gymnasium's seeding convention
+(``reset(seed=s)`` seeds sub-env ``i`` with ``s + i``, as ``SyncVectorEnv`` does) and its
+autoreset modes ``NEXT_STEP`` (the default) and ``SAME_STEP``.
+
+Two engines, chosen at construction, give the same results:
+
+* **arrays** (:attr:`NSVectorEnv.engine` ``"arrays"``): θ is an ``(N, D)`` array; the
+  dynamics, the scripted schedule, the projection onto the bounds and the oracle's notification
+  are numpy operations over all sub-envs at once. Used when the family has an
+  :class:`ArrayKernel` (CartPole, MountainCar, the grid worlds; see :mod:`ns_pz.envs.batched`),
+  the monitor is the :class:`~ns_pz.monitor.OracleMonitor`, nature has no constraints beyond
+  the bounds and is a :class:`~ns_pz.nature.StaticNature` or a
+  :class:`~ns_pz.nature.ScriptedNature` built from deterministic schedulers
+  (:data:`ARRAY_SCHEDULERS`) and the rules in :data:`ARRAY_RULES`.
+* **processes** (``"processes"``): one :class:`~ns_pz.process.NSProcess` per sub-env plays
+  nature and the monitor through the one cycle, so any nature and monitor (learned, random,
+  stateful, constrained) behaves exactly as in the single view. The dynamics are still batched
+  when the family has an array kernel; the per-sub-env turns cost a few microseconds each.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from ns_pz.family import EnvFamily, State
+from ns_pz.monitor.monitors import Monitor, OracleMonitor
+from ns_pz.monitor.notification import NotificationLevel
+from ns_pz.nature.constraints import NatureConstraints
+from ns_pz.nature.distribution_updates import (
+    DistributionDecrementUpdate,
+    DistributionIncrementUpdate,
+)
+from ns_pz.nature.policies import Nature, ScriptedNature, StaticNature
+from ns_pz.nature.scalar_updates import (
+    CyclicUpdate,
+    DecrementUpdate,
+    IncrementUpdate,
+    StepWiseUpdate,
+)
+from ns_pz.nature.schedulers import (
+    ContinuousScheduler,
+    DiscreteScheduler,
+    PeriodicScheduler,
+    WindowScheduler,
+)
+from ns_pz.observations import agent_observation_space
+from ns_pz.params import SIMPLEX, SIMPLEX_ATOL, Params
+from ns_pz.process import DECISION, NSProcess, check_seed
+
+ARRAY_SCHEDULERS = (ContinuousScheduler, PeriodicScheduler, DiscreteScheduler, WindowScheduler)
+"""Schedulers the array engine evaluates (they draw nothing from nature's generator)."""
+ARRAY_RULES = (
+    IncrementUpdate,
+    DecrementUpdate,
+    StepWiseUpdate,
+    CyclicUpdate,
+    DistributionIncrementUpdate,
+    DistributionDecrementUpdate,
+)
+"""Update rules the array engine applies as array operations."""
+_BUFFER = 256  # uniforms drawn ahead per sub-env generator
+
+
+# --- batched dynamics ------------------------------------------------------------------------
+class BatchKernel:
+    """A family's dynamics for a batch of sub-environments.
+
+    Attributes:
+        family: The family whose scalar dynamics this kernel reproduces.
+        step_uniforms: Uniform doubles a transition consumes from its sub-env's generator.
+        reset_uniforms: Uniform doubles a start state consumes (0: the family's
+            ``initial_state`` draws it from the generator itself).
+    """
+
+    step_uniforms = 0
+    reset_uniforms = 0
+
+    def __init__(self, family: EnvFamily) -> None:
+        self.family = family
+
+
+class LoopKernel(BatchKernel):
+    """No batched dynamics: each sub-env's process calls the family's scalar ``step``."""
+
+
+class ArrayKernel(BatchKernel):
+    """Dynamics as array functions: ``step(states, actions, theta, uniforms)``.
+
+    Args:
+        family: The family.
+        state_shape: Shape of one state's row in the batch array (``()`` for an index).
+        state_dtype: Its dtype.
+    """
+
+    def __init__(self, family: EnvFamily, state_shape: tuple[int, ...], state_dtype: type) -> None:
+        super().__init__(family)
+        self.state_shape = state_shape
+        self.state_dtype = state_dtype
+
+    def step(
+        self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Next states, rewards (float64) and terminal flags of every row."""
+        raise NotImplementedError
+
+    def observe(self, states: np.ndarray) -> np.ndarray:
+        """The batch of observations (a fresh array)."""
+        raise NotImplementedError
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Start states from ``(N, reset_uniforms)`` uniforms (kernels that declare them)."""
+        raise NotImplementedError
+
+    def pack(self, state: State) -> Any:
+        """One family state as a row of the batch array."""
+        return state
+
+    def unpack(self, row: np.ndarray) -> State:
+        """A row of the batch array as the family's state value (tuple of floats or int)."""
+        return row.item() if self.state_shape == () else tuple(row.tolist())
+
+
+# --- the vector env ---------------------------------------------------------------------------
+class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
+    """N sub-environments, each the Gymnasium view of its own NS-MDP, stepped together.
+
+    Args:
+        family: The environment family.
+        num_envs: Number of sub-environments (>= 1).
+        kernel: The family's batched dynamics (default: a loop over its scalar step).
+        params: θ_0 of every sub-env.
+        nature: One nature policy for all sub-envs (each keeps its own memory and generator),
+            or a sequence of ``num_envs`` natures, one per sub-env.
+        monitor: The monitor policy of every sub-env (default: the oracle).
+        notification: ``"none"``, ``"basic"`` or ``"detailed"``.
+        constraints: Lipschitz bound and budgets on nature.
+        max_episode_steps: Transitions after which a sub-env's episode is truncated.
+        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default) or ``SAME_STEP``.
+
+    Raises:
+        TypeError / ValueError: An argument of the wrong type or value (named in the message).
+    """
+
+    def __init__(
+        self,
+        family: EnvFamily,
+        num_envs: int,
+        *,
+        kernel: BatchKernel | None = None,
+        params: Params | Mapping[str, Any] | None = None,
+        nature: Nature | Sequence[Nature] | None = None,
+        monitor: Monitor | None = None,
+        notification: str | NotificationLevel = "none",
+        constraints: NatureConstraints | None = None,
+        max_episode_steps: int | None = 500,
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)):
+            raise TypeError(f"num_envs={num_envs!r} must be an int >= 1")
+        if num_envs < 1:
+            raise ValueError(f"num_envs={num_envs!r} must be >= 1")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            mode = None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(
+                f"autoreset_mode={autoreset_mode!r} is not supported; allowed: "
+                "AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP"
+            )
+        self.num_envs = int(num_envs)
+        self.autoreset_mode = mode
+        self.metadata = {"autoreset_mode": mode, "render_modes": []}
+        self.render_mode = None
+        natures = _natures(nature, self.num_envs)
+        self._processes = [
+            NSProcess(
+                family,
+                params=params,
+                nature=one,
+                monitor=monitor,
+                notification=notification,
+                constraints=constraints,
+                max_episode_steps=max_episode_steps,
+            )
+            for one in natures
+        ]
+        first = self._processes[0]
+        self.family = family
+        self.kernel = LoopKernel(family) if kernel is None else kernel
+        if self.kernel.family is not family:
+            raise ValueError(f"kernel={kernel!r} was built for another family than {family!r}")
+        self.level = first.level
+        self.max_episode_steps = max_episode_steps
+        self._schedule = (
+            _ArraySchedule.of(natures, first) if _arrays_fit(self.kernel, first) else None
+        )
+        self.engine = "processes" if self._schedule is None else "arrays"
+        """``"arrays"`` or ``"processes"`` (see the module docstring)."""
+        if self.engine == "arrays":
+            del self._processes[1:]  # the first one holds θ_0 and the checked settings
+
+        self.single_observation_space = agent_observation_space(family)
+        self.single_action_space = family.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+
+        n = self.num_envs
+        count = len(first.param_names)
+        self._theta0_row = np.array(first.base_theta0.flat_values(), np.float64)
+        self._layout = first.family.params_cls.flat_layout()
+        self._all_scalar = all(spec.kind != SIMPLEX for spec, _, _ in self._layout)
+        self._theta = np.tile(self._theta0_row, (n, 1))
+        self._last_theta = self._theta.copy()
+        self._theta_objects: list[Params | None] = [None] * n
+        self._t = np.zeros(n, np.int64)
+        self._flags = np.zeros((n, count), np.int8)
+        self._sizes = np.zeros((n, count), np.float32)
+        self._autoreset = np.zeros(n, np.bool_)
+        self._started = False
+        self._states: np.ndarray = np.zeros(0)
+        if isinstance(self.kernel, ArrayKernel):
+            self._states = np.zeros((n, *self.kernel.state_shape), self.kernel.state_dtype)
+        self._rngs: list[np.random.Generator | None] = [None] * n
+        self._uniforms = np.zeros((n, _BUFFER))
+        self._cursor = np.zeros(n, np.int64)
+        self._scratch = np.random.Generator(np.random.PCG64(0))
+        self._buffered = bool(self.kernel.step_uniforms or self.kernel.reset_uniforms)
+
+    # -- Gymnasium API ------------------------------------------------------------------------
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Reset every sub-env; ``seed=s`` seeds sub-env ``i`` with ``s + i``.
+
+        Args:
+            seed: ``None`` (keep the generators; fresh entropy on the first reset), an int, or
+                a list of ``num_envs`` ints or ``None``.
+            options: ``{"params": θ_0}`` for every sub-env, as the single view.
+
+        Raises:
+            TypeError / ValueError: A bad seed, a seed list of the wrong length, bad options.
+        """
+        n = self.num_envs
+        if seed is None:
+            seeds: list[int | None] = [None] * n
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            check_seed(seed)
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)  # type: ignore[arg-type]  # a bool is refused by check_seed
+            if len(seeds) != n:
+                raise ValueError(f"seed has {len(seeds)} entries; num_envs={n} needs {n}")
+            for one in seeds:
+                check_seed(one)
+        for i, one in enumerate(seeds):
+            if one is not None or self._rngs[i] is None:
+                self._seed(i, one)
+        everyone = np.ones(n, np.bool_)
+        self._reset_rows(everyone, options)
+        self._autoreset[:] = False
+        self._started = True
+        return self._observation(), {}
+
+    def step(
+        self, actions: Any
+    ) -> tuple[dict[str, Any], np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """One transition per sub-env (``NEXT_STEP``: a sub-env that ended is reset instead).
+
+        Raises:
+            ResetNeeded: Called before :meth:`reset`.
+            ValueError: ``actions`` is not a batch of valid actions.
+        """
+        if not self._started:
+            from ns_pz.errors import ResetNeeded
+
+            raise ResetNeeded("step() called before reset(); call reset() first")
+        actions = self._check_actions(actions)
+        n = self.num_envs
+        infos: dict[str, Any] = {}
+        if self.autoreset_mode is AutoresetMode.NEXT_STEP:
+            resetting = self._autoreset.copy()
+            stepping = ~resetting
+        else:
+            resetting = np.zeros(n, np.bool_)
+            stepping = np.ones(n, np.bool_)
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, np.bool_)
+        truncated = np.zeros(n, np.bool_)
+        arrays = self.engine == "arrays"
+        restart = arrays and resetting.any()
+        if restart:  # independent of the stepping rows; nature then acts once for both
+            self._reset_rows(resetting, None, act=False)
+        if stepping.any():
+            self._transition(stepping, actions, rewards, terminated, truncated, resetting)
+        elif restart:
+            assert self._schedule is not None
+            self._schedule.act(self, resetting)
+        ended = terminated | truncated
+        if self.autoreset_mode is AutoresetMode.SAME_STEP:
+            if ended.any():
+                final = self._observation()
+                objects = np.full(n, None, dtype=object)
+                for i in np.flatnonzero(ended):
+                    objects[i] = {key: value[i] for key, value in final.items()}
+                infos = {
+                    "final_obs": objects,
+                    "_final_obs": ended.copy(),
+                    "final_info": {},
+                    "_final_info": ended.copy(),
+                }
+                self._reset_rows(ended, None)
+        else:
+            if not arrays and resetting.any():
+                self._reset_rows(resetting, None)
+            self._autoreset = ended
+        return self._observation(), rewards, terminated, truncated, infos
+
+    # -- ns_pz extras -------------------------------------------------------------------------
+    def thetas(self) -> np.ndarray:
+        """θ in force in every sub-env (for evaluation only).
+
+        Returns:
+            An ``(N, D)`` copy, each row laid out as :meth:`ns_pz.params.Params.flat`.
+        """
+        if self.engine == "processes":
+            return np.array([p.theta.flat_values() for p in self._processes], np.float64)
+        return self._theta.copy()
+
+    # -- internals ----------------------------------------------------------------------------
+    def _seed(self, i: int, seed: int | None) -> None:
+        sequence = np.random.SeedSequence(seed)
+        if self.engine == "processes":
+            process = self._processes[i]
+            process.seed(sequence)
+            rng = process.env_rng
+            if self._buffered:
+                process.env_rng = self._scratch  # its draws come from our buffer instead
+        else:
+            rng = np.random.Generator(np.random.PCG64(sequence))  # as NSProcess.seed
+        assert rng is not None
+        self._rngs[i] = rng
+        if self._buffered:
+            self._uniforms[i] = rng.random(_BUFFER)
+            self._cursor[i] = 0
+
+    def _draw(self, rows: np.ndarray, count: int) -> np.ndarray:
+        """``count`` uniforms for each selected sub-env, each from its own stream in order.
+
+        ``rows`` are sorted indices; the result is a ``(len(rows), count)`` array.
+        """
+        cursor = self._cursor
+        at = cursor[rows]
+        short = rows[at + count > _BUFFER]
+        for i in short:  # keep what is left, then draw on
+            left = self._uniforms[i, cursor[i] :].copy()
+            self._uniforms[i, : len(left)] = left
+            self._uniforms[i, len(left) :] = self._rngs[i].random(_BUFFER - len(left))  # type: ignore[union-attr]
+            cursor[i] = 0
+        if len(short):
+            at = cursor[rows]
+        if count == 1:
+            values = self._uniforms[rows, at][:, None]
+        else:
+            values = self._uniforms[rows[:, None], at[:, None] + np.arange(count)]
+        cursor[rows] = at + count
+        return values
+
+    def _check_actions(self, actions: Any) -> np.ndarray:
+        space = self.single_action_space
+        array = np.asarray(actions)
+        if isinstance(space, gym.spaces.Discrete):
+            if (
+                array.shape != (self.num_envs,)
+                or array.dtype.kind not in "iu"
+                or array.min() < space.start
+                or array.max() >= space.start + space.n
+            ):
+                raise ValueError(
+                    f"actions={actions!r} must be {self.num_envs} ints in "
+                    f"[{space.start}, {space.start + space.n})"
+                )
+            return array.astype(np.int64)
+        return array
+
+    def _transition(
+        self,
+        stepping: np.ndarray,
+        actions: np.ndarray,
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+        restarted: np.ndarray,
+    ) -> None:
+        kernel = self.kernel
+        outcome = None
+        if isinstance(kernel, ArrayKernel):
+            count = kernel.step_uniforms
+            uniforms = None
+            if count:
+                uniforms = np.zeros(self.num_envs)
+                moving = np.flatnonzero(stepping)
+                uniforms[moving] = self._draw(moving, count)[:, 0]
+            outcome = kernel.step(self._states, actions, self._theta, uniforms)
+        if self.engine == "processes":
+            self._processes_transition(stepping, actions, outcome, rewards, terminated, truncated)
+            return
+        assert outcome is not None
+        states, reward, terminal = outcome
+        # In NEXT_STEP the rows not stepping are reset after this, so whole-array updates
+        # (np.copyto with a mask, fill) are exact and cheaper than boolean indexing.
+        np.copyto(self._states, states, where=stepping.reshape(-1, *[1] * (states.ndim - 1)))
+        np.copyto(rewards, reward, where=stepping)
+        theta, last = self._theta, self._last_theta
+        changed = (theta != last).any(axis=1)
+        changed &= stepping
+        self._t += stepping
+        np.logical_and(stepping, terminal, out=terminated)
+        limit = self.max_episode_steps
+        if limit is not None:
+            np.logical_and(stepping, self._t >= limit, out=truncated)
+        done = terminated | truncated
+        self._flags.fill(0)
+        self._sizes.fill(0.0)
+        notify = changed & ~done
+        if self.level.shows_flags and notify.any():
+            sizes = self._change_sizes(last, theta)
+            sizes *= notify[:, None]
+            self._flags[:] = sizes > 0.0
+            if self.level.shows_sizes:
+                self._sizes[:] = sizes
+        np.copyto(last, theta, where=changed[:, None])
+        acting = stepping & ~done
+        acting |= restarted
+        assert self._schedule is not None
+        self._schedule.act(self, acting)
+
+    def _processes_transition(
+        self,
+        stepping: np.ndarray,
+        actions: np.ndarray,
+        outcome: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        truncated: np.ndarray,
+    ) -> None:
+        check = self.family.check_action
+        kernel = self.kernel
+        for i in np.flatnonzero(stepping):
+            process = self._processes[i]
+            if outcome is None:
+                reward, term, trunc = process.transition(check(actions[i]))
+            else:
+                assert isinstance(kernel, ArrayKernel)
+                states, all_rewards, terminals = outcome
+                self._states[i] = states[i]
+                result = (kernel.unpack(states[i]), float(all_rewards[i]), bool(terminals[i]))
+                reward, term, trunc = process.transition(actions[i].item(), result)
+            rewards[i] = reward
+            terminated[i] = term
+            truncated[i] = trunc
+            if not process.done:
+                process.play_until(DECISION)
+            self._sync(i)
+
+    def _sync(self, i: int | np.integer) -> None:
+        """Copy process ``i``'s clock, notification and θ into the arrays."""
+        process = self._processes[i]
+        self._t[i] = process.t
+        flags, sizes = process.notice
+        self._flags[i] = flags
+        self._sizes[i] = sizes
+        if process.theta is not self._theta_objects[i]:
+            self._theta_objects[i] = process.theta
+            self._theta[i] = process.theta.flat_values()
+
+    def _reset_rows(
+        self, rows: np.ndarray, options: Mapping[str, Any] | None, act: bool = True
+    ) -> None:
+        """Start new episodes in the selected sub-envs (a bool mask).
+
+        ``act=False`` leaves nature's first turn to the caller (array engine only).
+        """
+        kernel = self.kernel
+        starts = None
+        indices = np.flatnonzero(rows)
+        if kernel.reset_uniforms:
+            assert isinstance(kernel, ArrayKernel)
+            starts = kernel.initial_from_uniforms(self._draw(indices, kernel.reset_uniforms))
+        if self.engine == "processes":
+            for j, i in enumerate(indices):
+                process = self._processes[i]
+                process.reset(options)
+                if starts is not None:
+                    assert isinstance(kernel, ArrayKernel)
+                    self._states[i] = starts[j]
+                    state = kernel.unpack(starts[j])
+                    process.state = process.initial_state = process.last_state = state
+                elif isinstance(kernel, ArrayKernel):
+                    self._states[i] = kernel.pack(process.state)
+                process.play_until(DECISION)
+                self._sync(i)
+            return
+        assert isinstance(kernel, ArrayKernel)
+        if starts is not None:
+            self._states[indices] = starts
+        else:
+            initial = self.family.initial_state
+            for i in indices:
+                self._states[i] = kernel.pack(initial(self._rngs[i]))  # type: ignore[arg-type]
+        theta0 = self._theta0_row
+        if options is not None and options.get("params") is not None:
+            process = self._processes[0]
+            process.reset(options)  # checks the options, as the single view does
+            theta0 = np.array(process.theta0.flat_values(), np.float64)
+        self._theta[rows] = theta0
+        self._last_theta[rows] = theta0
+        self._t[rows] = 0
+        self._flags[rows] = 0
+        self._sizes[rows] = 0.0
+        assert self._schedule is not None
+        self._schedule.restart(rows)
+        if act:
+            self._schedule.act(self, rows)
+
+    def _change_sizes(self, before: np.ndarray, after: np.ndarray) -> np.ndarray:
+        """Per-parameter change sizes of rows, as :meth:`Params.change_sizes` computes them.
+
+        ``|after - before|`` for a scalar, half the sum of the elements' (left to right) for a
+        probability vector.
+        """
+        difference = np.abs(after - before)
+        if self._all_scalar:
+            return difference
+        sizes = np.empty((len(before), len(self._layout)))
+        for j, (spec, start, stop) in enumerate(self._layout):
+            total = difference[:, start]
+            if spec.kind == SIMPLEX:
+                for k in range(start + 1, stop):
+                    total = total + difference[:, k]
+                total = 0.5 * total
+            sizes[:, j] = total
+        return sizes
+
+    def _observation(self) -> dict[str, Any]:
+        if isinstance(self.kernel, ArrayKernel):
+            state = self.kernel.observe(self._states)
+        else:
+            observe = self.family.observe
+            state = np.array([observe(p.state) for p in self._processes])
+        return {
+            "state": state,
+            "env_change": self._flags.copy(),
+            "delta_change": self._sizes.copy(),
+            "relative_time": self._t.astype(np.float32)[:, None],
+        }
+
+    def __repr__(self) -> str:
+        return (
+            f"NSVectorEnv({self.family!r}, num_envs={self.num_envs}, engine={self.engine!r}, "
+            f"notification={self.level.value!r})"
+        )
+
+
+def _natures(nature: Nature | Sequence[Nature] | None, count: int) -> list[Nature | None]:
+    if nature is None or isinstance(nature, Nature):
+        return [nature] * count
+    if isinstance(nature, Sequence) and not isinstance(nature, (str, bytes)):
+        if len(nature) != count:
+            raise ValueError(f"nature has {len(nature)} entries; num_envs={count} needs {count}")
+        return list(nature)
+    raise TypeError(f"nature={nature!r} must be a Nature, a list of num_envs Natures, or None")
+
+
+def _arrays_fit(kernel: BatchKernel, process: NSProcess) -> bool:
+    return (
+        isinstance(kernel, ArrayKernel)
+        and type(process.monitor) is OracleMonitor
+        and process.constraints.unconstrained
+    )
+
+
+class _ArraySchedule:
+    """A scripted nature's schedule as array operations over the θ rows of many sub-envs."""
+
+    def __init__(self, entries: list[tuple[Any, Any, int, int]], owner: str) -> None:
+        self._entries = entries  # (spec, rule, start, stop)
+        self._owner = owner
+        self._counts: list[np.ndarray] = []
+
+    @classmethod
+    def of(cls, natures: list[Nature | None], process: NSProcess) -> _ArraySchedule | None:
+        """The array form of the sub-envs' nature, or ``None`` if it has none."""
+        nature = natures[0]
+        if any(other is not nature for other in natures):
+            return None
+        params_cls = process.family.params_cls
+        owner = params_cls.__name__
+        if nature is None or type(nature) is StaticNature:
+            return cls([], owner)
+        if type(nature) is not ScriptedNature:
+            return None
+        slices = {spec.name: (spec, start, stop) for spec, start, stop in params_cls.flat_layout()}
+        entries = []
+        for name, rule in nature.updates.items():
+            if type(rule) not in ARRAY_RULES or type(rule.scheduler) not in ARRAY_SCHEDULERS:
+                return None
+            spec, start, stop = slices[name]
+            entries.append((spec, rule, start, stop))
+        return cls(entries, owner)
+
+    def restart(self, rows: np.ndarray) -> None:
+        """Zero the firing counts of the sub-envs starting an episode."""
+        if not self._counts:
+            self._counts = [np.zeros(len(rows), np.int64) for _ in self._entries]
+        for counts in self._counts:
+            counts[rows] = 0
+
+    def act(self, env: NSVectorEnv, rows: np.ndarray) -> None:
+        """Nature's turn in the selected sub-envs (a bool mask), each at its own step.
+
+        Rules are applied to whole columns (cheaper than gathering rows) and kept where the
+        scheduler fired and the value moved.
+        """
+        theta = env._theta
+        steps = env._t
+        for (spec, rule, start, stop), counts in zip(self._entries, self._counts, strict=True):
+            fires = _fires(rule.scheduler, steps, rows)
+            if not fires.any():
+                continue
+            old = theta[:, start:stop]
+            new = self._propose(spec, rule, old, counts, fires)
+            counts += fires
+            moved = (new != old).any(axis=1)
+            moved &= fires
+            np.copyto(old, new, where=moved[:, None])
+
+    def _propose(
+        self, spec: Any, rule: Any, old: np.ndarray, n: np.ndarray, fires: np.ndarray
+    ) -> np.ndarray:
+        """The rule's values, projected onto the spec exactly as ``ParamSpec.project`` does."""
+        kind = type(rule)
+        if spec.kind == SIMPLEX:
+            k = rule.k if kind is DistributionIncrementUpdate else -rule.k
+            first = np.minimum(np.maximum(old[:, 0] + k, 0.0), 1.0)
+            rest = (1.0 - first) / (old.shape[1] - 1)
+            new = np.repeat(rest[:, None], old.shape[1], axis=1)
+            new[:, 0] = first
+            total = new[:, 0] + 0.0
+            for j in range(1, new.shape[1]):
+                total = total + new[:, j]
+            odd = (np.abs(total - 1.0) > SIMPLEX_ATOL) & fires
+            for i in np.flatnonzero(odd):  # rare: let the spec project it
+                new[i] = spec.project(self._owner, tuple(new[i].tolist()))
+            return new
+        value = old[:, 0]
+        if kind is IncrementUpdate:
+            new_value = value + rule.k
+        elif kind is DecrementUpdate:
+            new_value = value - rule.k
+        else:
+            listed = np.array(rule.param_list if kind is StepWiseUpdate else rule.value_list)
+            if kind is CyclicUpdate:
+                new_value = listed[n % len(listed)]
+            else:
+                new_value = np.where(n < len(listed), listed[np.minimum(n, len(listed) - 1)], value)
+        # ParamSpec.project: inside stays as is; at or beyond a bound, the nearest allowed value.
+        low = math.nextafter(spec.low, math.inf) if spec.low_open else spec.low
+        high = math.nextafter(spec.high, -math.inf) if spec.high_open else spec.high
+        inside = np.where(
+            new_value <= spec.low, low, np.where(new_value >= spec.high, high, new_value)
+        )
+        return inside[:, None]
+
+
+def _fires(scheduler: Any, steps: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Where a deterministic scheduler fires, for the selected rows at their own steps."""
+    kind = type(scheduler)
+    if kind is ContinuousScheduler or kind is PeriodicScheduler:
+        active = steps >= scheduler.start
+        if scheduler.end is not None:
+            active &= steps <= scheduler.end
+        if kind is PeriodicScheduler:
+            active &= (steps - scheduler.start) % scheduler.period == 0
+        return active & rows
+    if kind is DiscreteScheduler:
+        return np.isin(steps, list(scheduler.event_list)) & rows
+    fired = np.array([scheduler(int(t), None) for t in steps], np.bool_)
+    return fired & rows

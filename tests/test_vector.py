@@ -1,0 +1,250 @@
+"""The native vector env equals N single views bit for bit, in both engines."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from gymnasium import spaces
+from ns_pz.envs.registry import make_gym, make_vec, registered_envs
+
+from ns_pz.errors import ResetNeeded
+from ns_pz.monitor.monitors import Monitor
+from ns_pz.nature import (
+    ContinuousScheduler,
+    CyclicUpdate,
+    DistributionDecrementUpdate,
+    IncrementUpdate,
+    PeriodicScheduler,
+    RandomNature,
+    ScriptedNature,
+    StepWiseUpdate,
+)
+from ns_pz.vector import NSVectorEnv
+
+CARTPOLE = ScriptedNature({"masspole": IncrementUpdate(ContinuousScheduler(start=1), 0.01)})
+SLIP = ScriptedNature({"slip": DistributionDecrementUpdate(ContinuousScheduler(start=0), 0.05)})
+CASES = [
+    ("ns_pz/CartPole-v0", CARTPOLE, "arrays"),
+    ("ns_pz/CartPole-v0", RandomNature(0.05), "processes"),
+    ("ns_pz/FrozenLake-v0", SLIP, "arrays"),
+    ("ns_pz/FrozenLake-v0", RandomNature(0.05), "processes"),
+    ("ns_pz/CliffWalking-v0", SLIP, "arrays"),
+    ("ns_pz/Bridge-v0", SLIP, "arrays"),
+    (
+        "ns_pz/BridgeSplit-v0",
+        ScriptedNature(
+            {"slip_left": DistributionDecrementUpdate(PeriodicScheduler(3, start=1), 0.2)}
+        ),
+        "arrays",
+    ),
+    (
+        "ns_pz/MountainCar-v0",
+        ScriptedNature(
+            {
+                "gravity": StepWiseUpdate(PeriodicScheduler(5, start=1), [0.002, 0.004]),
+                "force": CyclicUpdate(PeriodicScheduler(2, start=0), [0.001, 0.0015]),
+            }
+        ),
+        "arrays",
+    ),
+    ("ns_pz/MountainCarContinuous-v0", RandomNature(0.05), "processes"),
+    ("ns_pz/Acrobot-v0", None, "processes"),
+    ("ns_pz/Pendulum-v0", RandomNature(0.05), "processes"),
+]
+
+
+def _actions(space: spaces.Space[Any], rng: np.random.Generator, n: int) -> np.ndarray:
+    if isinstance(space, spaces.Discrete):
+        return rng.integers(0, space.n, n)
+    return rng.uniform(space.low, space.high, (n, *space.shape)).astype(space.dtype)
+
+
+def _same(batch: dict[str, np.ndarray], singles: list[dict[str, Any]]) -> None:
+    for key, values in batch.items():
+        for i, single in enumerate(singles):
+            assert np.array_equal(values[i], np.asarray(single[key])), (key, i)
+            if key != "state":
+                assert values[i].dtype == single[key].dtype, key
+
+
+@pytest.mark.parametrize("level", ["none", "basic", "detailed"])
+@pytest.mark.parametrize(("env_id", "nature", "engine"), CASES)
+def test_vector_equals_single_views(env_id: str, nature: Any, engine: str, level: str) -> None:
+    """Same seeds, same actions: same observations, rewards and ends (NEXT_STEP autoreset)."""
+    n, seed = 4, 11
+    vec = make_vec(env_id, n, nature=nature, notification=level, max_episode_steps=40)
+    assert vec.engine == engine
+    views = [
+        make_gym(env_id, nature=nature, notification=level, max_episode_steps=40) for _ in range(n)
+    ]
+    obs, _ = vec.reset(seed=seed)
+    singles = [view.reset(seed=seed + i)[0] for i, view in enumerate(views)]
+    _same(obs, singles)
+    rng = np.random.default_rng(0)
+    ended = [False] * n
+    notified = 0
+    for _ in range(120):
+        actions = _actions(vec.single_action_space, rng, n)
+        obs, rewards, terminated, truncated, _ = vec.step(actions)
+        for i, view in enumerate(views):
+            if ended[i]:  # NEXT_STEP: the sub-env resets instead of stepping
+                singles[i], _ = view.reset()
+                expected: tuple = (0.0, False, False)
+                ended[i] = False
+            else:
+                singles[i], reward, term, trunc, _ = view.step(actions[i])
+                expected = (reward, term, trunc)
+                ended[i] = term or trunc
+            assert (rewards[i], terminated[i], truncated[i]) == expected
+        _same(obs, singles)
+        notified += int(obs["env_change"].any())
+    if level != "none" and nature is not None:
+        assert notified > 0  # the comparison covered notifications
+
+
+def test_same_step_autoreset_matches_single_views() -> None:
+    """SAME_STEP: the final observation in the info, the next episode's first in the batch."""
+    n = 3
+    vec = make_vec("ns_pz/FrozenLake-v0", n, nature=SLIP, autoreset_mode="SameStep")
+    views = [make_gym("ns_pz/FrozenLake-v0", nature=SLIP) for _ in range(n)]
+    obs, _ = vec.reset(seed=[5, 6, 7])
+    for i, view in enumerate(views):
+        view.reset(seed=5 + i)
+    rng = np.random.default_rng(1)
+    finals = 0
+    for _ in range(60):
+        actions = rng.integers(0, 4, n)
+        obs, _, terminated, truncated, infos = vec.step(actions)
+        for i, view in enumerate(views):
+            single, _, term, trunc, _ = view.step(int(actions[i]))
+            if term or trunc:
+                finals += 1
+                assert infos["_final_obs"][i]
+                assert infos["final_obs"][i]["state"] == single["state"]
+                single, _ = view.reset()
+            assert obs["state"][i] == single["state"]
+    assert finals > 0
+
+
+def test_engine_falls_back_to_processes_for_other_monitors() -> None:
+    """A monitor other than the oracle runs per sub-env, and is obeyed."""
+
+    class Quiet(Monitor):
+        needs_observation = False
+
+        def notify(self, observation: Any, truth: Any, memory: Any, rng: Any) -> Any:
+            return (0,), (0.0,)
+
+    vec = make_vec("ns_pz/FrozenLake-v0", 2, nature=SLIP, monitor=Quiet(), notification="basic")
+    assert vec.engine == "processes"
+    obs, _ = vec.reset(seed=0)
+    obs, *_ = vec.step(np.array([0, 1]))
+    assert not obs["env_change"].any()
+
+
+def test_bad_arguments_are_refused() -> None:
+    """Each bad argument gets an error naming it."""
+    with pytest.raises(ValueError, match="num_envs=0 must be >= 1"):
+        make_vec("ns_pz/CartPole-v0", 0)
+    with pytest.raises(TypeError, match="num_envs=2.0 must be an int"):
+        make_vec("ns_pz/CartPole-v0", 2.0)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="autoreset_mode='Disabled' is not supported"):
+        make_vec("ns_pz/CartPole-v0", 2, autoreset_mode="Disabled")
+    with pytest.raises(ValueError, match="nature has 1 entries; num_envs=2"):
+        make_vec("ns_pz/CartPole-v0", 2, nature=[CARTPOLE])
+    vec = make_vec("ns_pz/CartPole-v0", 2)
+    with pytest.raises(ResetNeeded, match="before reset"):
+        vec.step(np.array([0, 1]))
+    with pytest.raises(ValueError, match="seed has 3 entries; num_envs=2"):
+        vec.reset(seed=[1, 2, 3])
+    vec.reset(seed=0)
+    with pytest.raises(ValueError, match=r"actions=.* must be 2 ints in \[0, 2\)"):
+        vec.step(np.array([0, 2]))
+
+
+def test_observations_are_fresh_and_in_the_space() -> None:
+    """Observations lie in the batched space and are the caller's to modify."""
+    vec = make_vec("ns_pz/CartPole-v0", 3, nature=CARTPOLE, notification="detailed")
+    obs, _ = vec.reset(seed=3)
+    obs, *_ = vec.step(np.array([1, 0, 1]))
+    obs, *_ = vec.step(np.array([1, 0, 1]))
+    assert vec.observation_space.contains(obs)
+    obs["env_change"][:] = 7
+    again = vec._observation()
+    assert again["env_change"].max() <= 1
+    assert isinstance(vec, NSVectorEnv)
+    assert vec.thetas()[:, 2] == pytest.approx(0.1 + 2 * 0.01)  # nature moved at t=1 and t=2
+
+
+def test_sb3_adapter_steps_without_a_loop() -> None:
+    """SB3VecEnv needs SAME_STEP and reports terminal observations SB3's way."""
+    pytest.importorskip("stable_baselines3")
+    from ns_pz.sb3_vec import SB3VecEnv
+
+    with pytest.raises(ValueError, match="SAME_STEP"):
+        SB3VecEnv(make_vec("ns_pz/CartPole-v0", 2))
+    env = SB3VecEnv(make_vec("ns_pz/CartPole-v0", 4, autoreset_mode="SameStep"))
+    env.seed(3)
+    obs = env.reset()
+    assert obs["state"].shape == (4, 4)
+    done_seen = False
+    for _ in range(100):
+        obs, rewards, dones, infos = env.step(np.ones(4, np.int64))
+        for i in np.flatnonzero(dones):
+            done_seen = True
+            assert infos[i]["terminal_observation"]["state"].shape == (4,)
+    assert done_seen
+
+
+def test_grid_kernel_takes_the_last_positive_outcome_when_rounding_leaves_u_above_the_sum() -> None:
+    """θ summing a hair below 1 and u above the sum: the scalar step's choice, not index K."""
+    from ns_pz.envs.batched import SlipGridKernel
+    from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
+
+    family = FrozenLakeFamily()
+    theta = FrozenLakeParams(slip=(1.0 - 5e-9, 0.0, 0.0))
+    u = 1.0 - 1e-9
+
+    class Fixed:
+        def random(self) -> float:
+            return u
+
+    expected = family.step(6, 2, theta, Fixed())  # type: ignore[arg-type]
+    states, rewards, terminals = SlipGridKernel(family).step(
+        np.array([6]), np.array([2]), np.array([theta.flat_values()]), np.array([u])
+    )
+    assert (int(states[0]), float(rewards[0]), bool(terminals[0])) == expected
+
+
+@pytest.mark.parametrize("nature", [CARTPOLE, RandomNature(0.05)])
+def test_reset_options_set_theta0_as_in_the_single_view(nature: Any) -> None:
+    """``reset(options={"params": ...})`` starts every sub-env from that θ_0, in both engines."""
+    import ns_pz
+
+    options = {"params": {"masspole": 0.5}}
+    vec = ns_pz.make_vec("ns_pz/CartPole-v0", 2, nature=nature, notification="detailed")
+    views = [make_gym("ns_pz/CartPole-v0", nature=nature, notification="detailed") for _ in "ab"]
+    obs, _ = vec.reset(seed=1, options=options)
+    singles = [view.reset(seed=1 + i, options=options)[0] for i, view in enumerate(views)]
+    _same(obs, singles)
+    for _ in range(5):
+        obs, *_ = vec.step(np.array([0, 1]))
+        singles = [view.step(a)[0] for view, a in zip(views, (0, 1), strict=True)]
+        _same(obs, singles)
+    expected = [view.unwrapped.process.theta.flat_values() for view in views]
+    assert vec.thetas().tolist() == expected
+
+
+@pytest.mark.parametrize("env_id", registered_envs())
+def test_every_registered_id_batches(env_id: str) -> None:
+    """make_vec builds every registered id; observations stay in the batched space."""
+    vec = make_vec(env_id, 3, notification="detailed")
+    obs, _ = vec.reset(seed=0)
+    assert vec.observation_space.contains(obs)
+    vec.action_space.seed(0)
+    for _ in range(5):
+        obs, rewards, terminated, truncated, _ = vec.step(vec.action_space.sample())
+        assert vec.observation_space.contains(obs)
+        assert rewards.shape == terminated.shape == truncated.shape == (3,)
