@@ -29,7 +29,9 @@ if TYPE_CHECKING:
     from ns_pz.process import NSProcess
 
 NATURE_REWARDS = ("zero_sum", "cooperative", "none", "regret")
+"""The values ``nature_reward=`` takes: −r, +r, 0, or the shortfall against a reference."""
 RegretReference = Callable[["NSProcess"], float]
+"""Maps a process at reset to the value an oracle expects from there (the regret baseline)."""
 
 
 class NatureReward:

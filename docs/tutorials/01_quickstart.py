@@ -1,0 +1,8 @@
+"""
+Quickstart
+==========
+
+placeholder
+"""
+
+print("hi")
