@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 NATURE_REWARDS = ("zero_sum", "cooperative", "none", "regret")
 """The values ``nature_reward=`` takes: −r, +r, 0, or the shortfall against a reference."""
 RegretReference = Callable[["NSProcess"], float]
-"""Maps a process at reset to the value an oracle expects from there (the regret baseline)."""
+"""``reference(process) -> float``, called once per finished episode: the regret baseline."""
 
 
 class NatureReward:
