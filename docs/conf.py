@@ -25,6 +25,7 @@ extensions = [
     "sphinx.ext.napoleon",
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
+    "myst_parser",  # the Markdown pages (moved from the README) stay Markdown
     "sphinx_gallery.gen_gallery",
     "ns_pz_docs",
 ]
@@ -32,6 +33,7 @@ extensions = [
 exclude_patterns = ["_build", "tutorials/README.rst", "**/GALLERY_HEADER.rst"]
 
 # Google-style docstrings, as the code is written (ruff's pydocstyle convention = "google").
+myst_enable_extensions = ["dollarmath"]
 napoleon_google_docstring = True
 napoleon_numpy_docstring = False
 # "Attributes:" sections as field lists, so dataclass fields documented by autodoc are not

@@ -1,4 +1,5 @@
-"""Quickstart: the Gymnasium view and the game.
+"""Quickstart: the Gymnasium view and the game
+===========================================
 
 ns_pz gives every environment two faces: an ordinary Gymnasium environment (the *view*), in
 which nature and the monitor are built in, and a PettingZoo AEC game of three seats. This page
@@ -47,7 +48,7 @@ while not done:
     notices.append(float(obs["delta_change"][2]))  # masspole is θ's third field
 print(f"return {total:.0f} after {len(notices)} steps")
 first = next(i for i, size in enumerate(notices) if size > 0)
-print(f"first notification: {notices[first]:.2f} kg, in the observation at relative_time {first + 1}")
+print(f"first notification: {notices[first]:.2f} kg, at relative_time {first + 1}")
 
 # %%
 # The θ trajectory: the mass in force for each transition. Transition 0 ran under θ_0; the

@@ -1,4 +1,5 @@
-"""Notification and planning.
+"""Notification and planning
+=========================
 
 How much does being told help? A planner that solves the MDP it believes in
 (:class:`ns_pz.agents.SnapshotValueIteration`) plays FrozenLake while the ice changes once:
@@ -11,9 +12,9 @@ decision epoch. The notification level decides what the planner believes.
 # -------------------------------
 
 import matplotlib.pyplot as plt
+from ns_pz.agents import SnapshotValueIteration, evaluate, mean_and_standard_error
 
 import ns_pz
-from ns_pz.agents import SnapshotValueIteration, evaluate, mean_and_standard_error
 from ns_pz.nature import DiscreteScheduler, DistributionStepWiseUpdate, ScriptedNature
 
 nature = ScriptedNature(
@@ -24,7 +25,9 @@ nature = ScriptedNature(
 def make_env(level: str) -> ns_pz.NSGymEnv:
     """FrozenLake with the single change, at one notification level."""
     return ns_pz.make_gym(
-        "ns_pz/FrozenLake-v0", params={"slip": (0.7, 0.15, 0.15)}, nature=nature,
+        "ns_pz/FrozenLake-v0",
+        params={"slip": (0.7, 0.15, 0.15)},
+        nature=nature,
         notification=level,
     )
 
@@ -50,14 +53,14 @@ for level in ("none", "basic", "detailed"):
 levels = ("none", "basic", "detailed")
 results = {}
 for level in levels:
-    episodes = evaluate(lambda level=level: make_env(level), SnapshotValueIteration(gamma=0.99),
-                        range(100))
+    episodes = evaluate(
+        lambda level=level: make_env(level), SnapshotValueIteration(gamma=0.99), range(100)
+    )
     results[level] = mean_and_standard_error([e.episode_return for e in episodes])
     print(f"notification={level:8s} success rate {results[level][0]:.2f} ± {results[level][1]:.2f}")
 
 fig, ax = plt.subplots(figsize=(5, 3))
-ax.bar(levels, [results[lv][0] for lv in levels], yerr=[results[lv][1] for lv in levels],
-       capsize=4)
+ax.bar(levels, [results[lv][0] for lv in levels], yerr=[results[lv][1] for lv in levels], capsize=4)
 ax.set_ylabel("success rate (mean ± SE)")
 ax.set_title("Snapshot value iteration after a change")
 fig.tight_layout()

@@ -1,4 +1,5 @@
-"""The paper's benchmark, and how to read its tables.
+"""The paper's benchmark, and how to read its tables
+=================================================
 
 ``ns-pz bench run paper`` runs the NS-Gym paper's experiments from specs: small TOML files
 naming the environment, θ_0, the change, the notification levels and the agents. This page
@@ -101,8 +102,14 @@ for i, agent in enumerate(agents):
 for j, column in enumerate(columns):
     setting, notification = column.rsplit(" ", 1)
     best = optimum(setting, notification)
-    ax.hlines(best, j - 0.45, j + 0.45, colors="black", linestyles="--",
-              label="exact optimum" if j == 0 else None)
+    ax.hlines(
+        best,
+        j - 0.45,
+        j + 0.45,
+        colors="black",
+        linestyles="--",
+        label="exact optimum" if j == 0 else None,
+    )
 ax.set_xticks(range(len(columns)), columns)
 ax.set_ylabel("success rate (mean ± SE)")
 ax.set_title(spec.title, fontsize="small")

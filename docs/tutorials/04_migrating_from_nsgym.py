@@ -1,4 +1,5 @@
-"""Migrating from NS-Gym.
+"""Migrating from NS-Gym
+=====================
 
 ``ns_pz.compat`` is NS-Gym's API running on the ns_pz core: replace ``ns_gym`` with
 ``ns_pz.compat`` in the imports and NS-Gym code runs, with NS-Gym's names, arguments and

@@ -1,4 +1,5 @@
-"""Training an adversarial nature.
+"""Training an adversarial nature
+==============================
 
 Every seat of the game can be the learner of an ordinary Gymnasium environment with the other
 seats fixed (:func:`ns_pz.single_agent`). Here nature learns, with Stable-Baselines3's PPO,
@@ -13,9 +14,9 @@ page builds in seconds; train for longer to get a real adversary.
 
 import matplotlib.pyplot as plt
 import numpy as np
+from ns_pz.agents import SnapshotValueIteration
 
 import ns_pz
-from ns_pz.agents import SnapshotValueIteration
 from ns_pz.learn import TrainArgs, episode_returns, mean_and_se, train
 from ns_pz.nature import NatureConstraints, PolicyNature
 
