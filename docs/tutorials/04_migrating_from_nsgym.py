@@ -28,7 +28,13 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-example = Path(__file__).resolve().parents[2] / "examples" / "nsgym_migration.py"
+# The repository's examples/ folder, found from wherever the tutorial runs (the docs build runs
+# it in docs/tutorials/).
+example = next(
+    folder / "examples" / "nsgym_migration.py"
+    for folder in (Path.cwd(), *Path.cwd().parents)
+    if (folder / "examples" / "nsgym_migration.py").is_file()
+)
 run = runpy.run_path(str(example), run_name="__main__")
 
 # %%
