@@ -39,6 +39,9 @@ napoleon_numpy_docstring = False
 # "Attributes:" sections as field lists, so dataclass fields documented by autodoc are not
 # described twice.
 napoleon_use_ivar = True
+# Optional dependencies too heavy for the docs extra: autodoc (and the page generator) import
+# the modules that need them with these names mocked.
+autodoc_mock_imports = ["pyspiel"]
 autodoc_default_options = {"member-order": "bysource"}
 autodoc_typehints = "signature"
 autodoc_inherit_docstrings = True
