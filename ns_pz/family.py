@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     from ns_pz.rendering import Painter
 
 State = Any
+"""A simulator state: a small immutable value (an ``int`` cell, a tuple of floats)."""
 
 
 class EnvFamily(ABC):

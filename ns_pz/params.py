@@ -166,7 +166,7 @@ class ParamSpec:
         return self.check("projection of " + where, project_to_simplex(vector))  # type: ignore[return-value]
 
     def distance(self, a: Value, b: Value) -> float:
-        """Size of the change from ``a`` to ``b``: |a - b|, or W1 (total variation) for vectors."""
+        """Size of the change from ``a`` to ``b``: ``|a - b|``, or W1 (= TV) for a vector."""
         if self.kind == SCALAR:
             return abs(b - a)  # type: ignore[operator]
         return 0.5 * sum(map(abs, map(operator.sub, b, a)))  # type: ignore[arg-type]

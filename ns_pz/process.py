@@ -69,8 +69,11 @@ class GroundTruth:
 
 
 NATURE = "nature"
+"""Id of the seat that sets θ."""
 MONITOR = "monitor"
+"""Id of the seat that chooses the notification."""
 DECISION = "agent"
+"""Id of the decision maker's seat (the string ``"agent"``, as in PettingZoo)."""
 AGENTS = (NATURE, MONITOR, DECISION)
 """The three seats, in turn order."""
 RESET_OPTIONS = ("params",)

@@ -29,7 +29,9 @@ if TYPE_CHECKING:
     from ns_pz.process import NSProcess
 
 NATURE_REWARDS = ("zero_sum", "cooperative", "none", "regret")
+"""The values ``nature_reward=`` takes: −r, +r, 0, or the shortfall against a reference."""
 RegretReference = Callable[["NSProcess"], float]
+"""``reference(process) -> float``, called once per finished episode: the regret baseline."""
 
 
 class NatureReward:

@@ -35,6 +35,7 @@ class SearchResult:
 
 
 SearchFunction = Callable[[Any, Any, np.random.Generator], SearchResult]
+"""``search(model, root_state, rng) -> SearchResult``: one decision of a search algorithm."""
 
 
 class SearchAgent(Agent):

@@ -4,7 +4,7 @@ Every observed transition ``(s, a, s')`` has a probability under any θ, read of
 explicit outcome table (:class:`~ns_pz.planning.TabularOutcomes`): the sum of the probabilities
 of the outcomes of ``(s, a)`` that lead to ``s'``. The detector compares a reference with every
 point θ_g of a grid over each parameter's domain (one parameter varied, the others at θ_0): one
-CUSUM per grid point,
+CUSUM per grid point::
 
     W_g(t) = max(0, W_g(t-1) + log P_g(s'|s, a) - log P_ref(s'|s, a)),
 

@@ -5,7 +5,7 @@ reference θ (θ_0 until a change is detected): ``ŝ' = model.transition(s, a)``
 are deterministic, so under the reference the prediction is exact but for rounding: the monitor
 sees float32 observations, and stepping from a rounded state gives an error of about ``1e-7``
 relative. The statistic is therefore the prediction error in units of a tolerance that sits
-well above rounding and well below what a real change of θ does in one step,
+well above rounding and well below what a real change of θ does in one step::
 
     x_t = max_i |ŝ'_i - s'_i| / (tolerance * (1 + |s'_i|)),
 
