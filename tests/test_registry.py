@@ -70,9 +70,13 @@ def test_module_prefixed_id_imports_ns_pz_by_itself(tmp_path):
 
 
 def test_import_loads_no_torch_and_no_compiler(tmp_path):
-    """Import ns_pz stays light: no torch, numba, jax or scipy."""
+    """Import ns_pz stays light: no torch, numba, jax, scipy, stable-baselines3 or ray.
+
+    ``ns_pz.rllib`` is importable without loading ray (it imports ray inside its functions).
+    """
     code = (
-        "import sys, ns_pz; heavy = ('torch', 'numba', 'jax', 'scipy');"
+        "import sys, ns_pz, ns_pz.rllib;"
+        " heavy = ('torch', 'numba', 'jax', 'scipy', 'stable_baselines3', 'ray');"
         " print([m for m in heavy if m in sys.modules])"
     )
     out = run_python(code, tmp_path)
