@@ -36,7 +36,7 @@ import ns_pz
 from ns_pz import nature as N
 from ns_pz.learn import TrainArgs, rarl, train, train_adversary
 from ns_pz.nature import NatureConstraints, PolicyNature
-from ns_pz.process import DECISION, NATURE
+from ns_pz.process import DECISION
 from ns_pz.seat_policies import DecisionPolicy
 
 LAKE = "ns_pz/FrozenLake-v0"
@@ -131,15 +131,23 @@ SETTINGS = {
         LAKE,
         lambda: SnapshotValueIteration(gamma=0.99),
         lake_grid,
-        {"params": {"slip": (1.0, 0.0, 0.0)}, "constraints": LAKE_LIMITS, "notification": "none",
-         "max_episode_steps": 100},
+        {
+            "params": {"slip": (1.0, 0.0, 0.0)},
+            "constraints": LAKE_LIMITS,
+            "notification": "none",
+            "max_episode_steps": 100,
+        },
     ),
     "FrozenLake, detailed": Setting(
         LAKE,
         lambda: SnapshotValueIteration(gamma=0.99),
         lake_grid,
-        {"params": {"slip": (1.0, 0.0, 0.0)}, "constraints": LAKE_LIMITS,
-         "notification": "detailed", "max_episode_steps": 100},
+        {
+            "params": {"slip": (1.0, 0.0, 0.0)},
+            "constraints": LAKE_LIMITS,
+            "notification": "detailed",
+            "max_episode_steps": 100,
+        },
     ),
     "CartPole, none": Setting(
         CARTPOLE,
@@ -185,9 +193,7 @@ def compare(name: str, setting: Setting, args: argparse.Namespace) -> dict[str, 
         for label, nature in setting.grid()
     }
     worst = min(scripted, key=lambda label: scripted[label][0])
-    worst_scored = mean_se(
-        agent_returns(setting, dict(setting.grid())[worst], agent, episodes)
-    )
+    worst_scored = mean_se(agent_returns(setting, dict(setting.grid())[worst], agent, episodes))
     started = time.perf_counter()
     learned = []
     for seed in range(args.seeds):
@@ -279,18 +285,27 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick:
         args.seeds, args.episodes, args.nature_steps, args.agent_steps, args.rounds = (
-            1, 2, 512, 1024, 2,
+            1,
+            2,
+            512,
+            1024,
+            2,
         )
     if args.only != "b":
         print("(a) agent's return: static θ_0 | PPO nature | worst scripted schedule")
-        print("| setting | static θ_0 | PPO nature | worst scripted | schedules above PPO |"
-              " PPO s/seed |")
+        print(
+            "| setting | static θ_0 | PPO nature | worst scripted | schedules above PPO |"
+            " PPO s/seed |"
+        )
         print("|---|---|---|---|---|---|")
         for name, setting in SETTINGS.items():
             if args.quick:
-                setting = Setting(setting.env_id, setting.agent,
-                                  lambda g=setting.grid: itertools.islice(g(), 3),
-                                  setting.env_kwargs)
+                setting = Setting(
+                    setting.env_id,
+                    setting.agent,
+                    lambda g=setting.grid: itertools.islice(g(), 3),
+                    setting.env_kwargs,
+                )
             r = compare(name, setting, args)
             label, worst, worst_se = r["worst"]
             print(

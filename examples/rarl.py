@@ -24,8 +24,14 @@ out = Path(options.out or tempfile.mkdtemp(prefix="rarl-"))
 
 constraints = NatureConstraints(
     lipschitz={"force_mag": 0.5, "length": 0.02, "tau": 0.002},
-    budget={"force_mag": 8.0, "length": 0.35, "tau": 0.04, "gravity": 0, "masscart": 0,
-            "masspole": 0},  # a budget of 0 freezes a parameter
+    budget={
+        "force_mag": 8.0,
+        "length": 0.35,
+        "tau": 0.04,
+        "gravity": 0,
+        "masscart": 0,
+        "masspole": 0,
+    },  # a budget of 0 freezes a parameter
 )
 ppo = {"n_steps": 128, "batch_size": 64}
 result = rarl(

@@ -61,7 +61,9 @@ class GameForRLlib(AECEnv):
 
     metadata: dict[str, Any] = {"name": "ns_pz_game_rllib", "is_parallelizable": False}
 
-    def __init__(self, game: NSGame, *, scripted_monitor: bool = True, flatten: bool = True) -> None:
+    def __init__(
+        self, game: NSGame, *, scripted_monitor: bool = True, flatten: bool = True
+    ) -> None:
         super().__init__()
         if game.nature_action != "normalized":
             raise ValueError(
@@ -151,7 +153,7 @@ class GameForRLlib(AECEnv):
         observation = self.game.observe(agent)
         if not self.flatten:
             return observation
-        return spaces.flatten(self._spaces[agent], observation).astype(np.float32)
+        return np.asarray(spaces.flatten(self._spaces[agent], observation), np.float32)
 
     def last(self, observe: bool = True) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         """PettingZoo's ``last()`` for the selected learner."""
@@ -184,7 +186,8 @@ def env_creator(
 
     Args:
         env_id: A registered id.
-        scripted_monitor / flatten: As in :class:`GameForRLlib`.
+        scripted_monitor: Hide the monitor and play it with the game's monitor policy.
+        flatten: Flatten ``Dict`` observations (see :class:`GameForRLlib`).
         **game_kwargs: The game's arguments (``params``, ``constraints``, ``notification``,
             ``max_episode_steps``, ``nature_observes_state``...); ``nature_action`` is set to
             ``"normalized"`` and, with a learning monitor, ``monitor_action`` to ``"flags"``.
@@ -201,9 +204,7 @@ def env_creator(
 
         kwargs = {**game_kwargs, **dict(env_config or {})}
         game = ns_pz.make(env_id, **kwargs)
-        return PettingZooEnv(
-            GameForRLlib(game, scripted_monitor=scripted_monitor, flatten=flatten)
-        )
+        return PettingZooEnv(GameForRLlib(game, scripted_monitor=scripted_monitor, flatten=flatten))
 
     return create
 
@@ -242,12 +243,14 @@ def ppo_config(
 
     Args:
         env_id: A registered id.
-        scripted_monitor / flatten: As in :class:`GameForRLlib`; with ``flatten=False`` the
-            config flattens ``Dict`` observations with RLlib's ``FlattenObservations``
-            connector instead.
+        scripted_monitor: Hide the monitor and play it with the game's monitor policy;
+            ``False`` gives the monitor a PPO policy of its own too (flag actions).
+        flatten: Flatten ``Dict`` observations in the environment; ``False`` flattens them
+            with RLlib's ``FlattenObservations`` env-to-module connector instead.
         seed: ``config.debugging(seed=...)``: RLlib's and the episodes' seeds.
-        train_batch_size / minibatch_size / num_epochs: PPO's training sizes (env steps of all
-            learners together per iteration, SGD minibatch, epochs per iteration).
+        train_batch_size: Env steps (of all learners together) per training iteration.
+        minibatch_size: PPO's SGD minibatch.
+        num_epochs: PPO's epochs over each batch.
         **game_kwargs: The game's arguments (see :func:`env_creator`).
 
     Returns:
@@ -275,9 +278,9 @@ def ppo_config(
     return config
 
 
-def _seat_policy(agent_id: str, episode: Any = None, **kwargs: Any) -> str:
+def _seat_policy(agent_id: Any, episode: Any, **kwargs: Any) -> str:
     """Every seat is trained by the policy of its own name."""
-    return agent_id
+    return str(agent_id)
 
 
 def _connector(flatten: bool) -> dict[str, Any]:
@@ -285,6 +288,8 @@ def _connector(flatten: bool) -> dict[str, Any]:
         return {}
     from ray.rllib.connectors.env_to_module import FlattenObservations
 
-    return {"env_to_module_connector": lambda env, spaces=None, device=None: FlattenObservations(
-        multi_agent=True
-    )}
+    return {
+        "env_to_module_connector": lambda env, spaces=None, device=None: FlattenObservations(
+            multi_agent=True
+        )
+    }

@@ -34,8 +34,14 @@ CARTPOLE = "ns_pz/CartPole-v0"
 POLE = {
     "constraints": NatureConstraints(
         lipschitz={"length": 0.02},
-        budget={"length": 0.45, "gravity": 0, "masscart": 0, "masspole": 0, "force_mag": 0,
-                "tau": 0},
+        budget={
+            "length": 0.45,
+            "gravity": 0,
+            "masscart": 0,
+            "masspole": 0,
+            "force_mag": 0,
+            "tau": 0,
+        },
     ),
     "max_episode_steps": 200,
 }
@@ -76,7 +82,9 @@ def test_a_ppo_adversary_learns_to_beat_the_scripted_baselines():
     baselines = {
         "static": agents_return(None),
         "random": agents_return(RandomNature(scale=0.05)),
-        "random walk": agents_return(ScriptedNature({"length": RandomWalk(every_step, sigma=0.02)})),
+        "random walk": agents_return(
+            ScriptedNature({"length": RandomWalk(every_step, sigma=0.02)})
+        ),
         "oscillating": agents_return(
             ScriptedNature({"length": OscillatingUpdate(every_step, delta=0.02)})
         ),
@@ -112,9 +120,10 @@ def test_rarl_logs_every_round_and_its_checkpoints_load_and_act_identically(tmp_
     for seed in range(3):
         obs, _ = env.reset(seed=seed)
         nature_obs, _ = nature_env.reset(seed=seed)
-        assert agent.predict(obs, deterministic=True)[0] == result.agent.predict(
-            obs, deterministic=True
-        )[0]
+        assert (
+            agent.predict(obs, deterministic=True)[0]
+            == result.agent.predict(obs, deterministic=True)[0]
+        )
         np.testing.assert_array_equal(
             nature.predict(nature_obs, deterministic=True)[0],
             result.nature.predict(nature_obs, deterministic=True)[0],
