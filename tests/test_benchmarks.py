@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_core.py"
 
 
@@ -31,3 +33,15 @@ def test_search_benchmark_smoke_run(tmp_path):
     assert "One MCTS decision" in out and "Model step in the rollout loop" in out
     for setting in ("FrozenLake m=5 d=100", "CliffWalking m=50 d=200", "CartPole m=15 d=500"):
         assert setting in out
+
+
+def test_adversary_benchmark_quick_run():
+    """bench_adversary.py --quick prints both tables (needs the learn extra)."""
+    pytest.importorskip("stable_baselines3")
+    bench = BENCH.parent / "bench_adversary.py"
+    out = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, check=True
+    ).stdout
+    for row in ("| FrozenLake, none |", "| FrozenLake, detailed |", "| CartPole, none |"):
+        assert row in out
+    assert "| RARL |" in out and "| θ_0 only |" in out
