@@ -126,29 +126,20 @@ def _fresh(name: str) -> N.Scheduler:
     return dict(schedulers())[name]
 
 
+def lake_setting(notification: str) -> Setting:
+    """FrozenLake from a sure-footed θ_0, 100 steps, value iteration on the snapshot."""
+    kwargs = {
+        "params": {"slip": (1.0, 0.0, 0.0)},
+        "constraints": LAKE_LIMITS,
+        "notification": notification,
+        "max_episode_steps": 100,
+    }
+    return Setting(LAKE, lambda: SnapshotValueIteration(gamma=0.99), lake_grid, kwargs)
+
+
 SETTINGS = {
-    "FrozenLake, none": Setting(
-        LAKE,
-        lambda: SnapshotValueIteration(gamma=0.99),
-        lake_grid,
-        {
-            "params": {"slip": (1.0, 0.0, 0.0)},
-            "constraints": LAKE_LIMITS,
-            "notification": "none",
-            "max_episode_steps": 100,
-        },
-    ),
-    "FrozenLake, detailed": Setting(
-        LAKE,
-        lambda: SnapshotValueIteration(gamma=0.99),
-        lake_grid,
-        {
-            "params": {"slip": (1.0, 0.0, 0.0)},
-            "constraints": LAKE_LIMITS,
-            "notification": "detailed",
-            "max_episode_steps": 100,
-        },
-    ),
+    "FrozenLake, none": lake_setting("none"),
+    "FrozenLake, detailed": lake_setting("detailed"),
     "CartPole, none": Setting(
         CARTPOLE,
         lambda: balance,
