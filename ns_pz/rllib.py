@@ -212,6 +212,9 @@ def env_creator(
 def register(env_id: str, **kwargs: Any) -> str:
     """Register ``env_id``'s game with Ray Tune under ``"ns_pz_rllib/<name>"``; returns that name.
 
+    Registering the same id again (with other arguments) replaces the earlier registration in
+    this process, for algorithms built afterwards.
+
     Args:
         env_id: A registered id.
         **kwargs: As in :func:`env_creator`.
