@@ -342,6 +342,11 @@ class NSGame(AECEnv):
         return self._process.planning_model()
 
     @property
+    def nature_action(self) -> str:
+        """Nature's action convention: ``"delta"`` or ``"normalized"``."""
+        return self._nature.action_mode
+
+    @property
     def nature_action_space(self) -> spaces.Box:
         """Nature's action space, typed as the ``Box`` it is."""
         return self._nature.action_space

@@ -6,6 +6,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_core.py"
 
 
@@ -55,3 +57,15 @@ def test_detector_benchmark_smoke_run():
     for row in ("| frozenlake-single | cusum | p=0.4 | random | 2 |", "| cartpole-single | "):
         assert row in out
     assert out.count("| cliffwalking-single | cusum |") == 3
+
+
+def test_adversary_benchmark_quick_run():
+    """bench_adversary.py --quick prints both tables (needs the learn extra)."""
+    pytest.importorskip("stable_baselines3")
+    bench = BENCH.parent / "bench_adversary.py"
+    out = subprocess.run(
+        [sys.executable, str(bench), "--quick"], capture_output=True, text=True, check=True
+    ).stdout
+    for row in ("| FrozenLake, none |", "| FrozenLake, detailed |", "| CartPole, none |"):
+        assert row in out
+    assert "| RARL |" in out and "| θ_0 only |" in out

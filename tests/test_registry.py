@@ -71,9 +71,12 @@ def test_module_prefixed_id_imports_ns_pz_by_itself(tmp_path):
 
 
 def test_import_loads_no_torch_and_no_compiler(tmp_path):
-    """Import ns_pz stays light: no torch, numba, jax, scipy, SB3, Ray, pygame or MuJoCo."""
+    """Import ns_pz stays light: no torch, numba, jax, scipy, SB3, Ray, pygame or MuJoCo.
+
+    ``ns_pz.rllib`` is importable without loading ray (it imports ray inside its functions).
+    """
     code = (
-        "import sys, ns_pz, ns_pz.nature, ns_pz.monitor, ns_pz.seats;"
+        "import sys, ns_pz, ns_pz.nature, ns_pz.monitor, ns_pz.seats, ns_pz.rllib;"
         " heavy = ('torch', 'numba', 'jax', 'scipy', 'stable_baselines3', 'ray', 'pygame',"
         " 'mujoco');"
         " print([m for m in heavy if m in sys.modules])"

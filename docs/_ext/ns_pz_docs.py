@@ -66,7 +66,7 @@ LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     (
         "Learner seats",
         "Any seat as a single-agent Gymnasium env; training with SB3.",
-        ("ns_pz.seats", "ns_pz.seat_policies", "ns_pz.learn", "ns_pz.sb3_vec"),
+        ("ns_pz.seats", "ns_pz.seat_policies", "ns_pz.learn", "ns_pz.sb3_vec", "ns_pz.rllib"),
     ),
     ("Planning", "Stationary models that search agents simulate.", ("ns_pz.planning",)),
     ("Environments", "The families and the registry (installed as ns_pz.envs).", ("ns_pz.envs",)),
