@@ -13,20 +13,16 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
+from ns_pz.agents import SnapshotValueIteration  # noqa: E402
 from stable_baselines3 import PPO  # noqa: E402
 
 import ns_pz  # noqa: E402
 from ns_pz import DECISION, NATURE  # noqa: E402
-from ns_pz.learn import TrainArgs, episode_returns, make_model, rarl, train_adversary  # noqa: E402
+from ns_pz.learn import TrainArgs, make_model, rarl, train_adversary  # noqa: E402
 from ns_pz.nature import (  # noqa: E402
-    ContinuousScheduler,
-    IncrementUpdate,
     NatureConstraints,
-    OscillatingUpdate,
     PolicyNature,
     RandomNature,
-    RandomWalk,
-    ScriptedNature,
 )
 
 CARTPOLE = "ns_pz/CartPole-v0"
@@ -54,46 +50,74 @@ def balance(obs):
     return int(0.1 * state[0] + 0.3 * state[1] + state[2] + 0.5 * state[3] > 0)
 
 
-def agents_return(nature, episodes=range(50, 60)):
-    """The controller's mean return against ``nature`` (``None``: θ fixed)."""
+LAKE = {
+    "params": {"slip": (1.0, 0.0, 0.0)},
+    "notification": "none",
+    "constraints": NatureConstraints(lipschitz=0.1, budget=0.6),
+    "max_episode_steps": 100,
+}
+
+
+def planner_return(nature, episodes=range(100, 140)):
+    """VI-snapshot's mean return on the lake against ``nature`` (``None``: θ fixed)."""
     policies = {} if nature is None else {NATURE: nature}
-    env = ns_pz.single_agent(CARTPOLE, DECISION, policies, **POLE)
-    return statistics.fmean(episode_returns(env, balance, episodes))
+    env = ns_pz.single_agent("ns_pz/FrozenLake-v0", DECISION, policies, **LAKE)
+    agent = SnapshotValueIteration(gamma=0.99)
+    returns = []
+    for seed in episodes:
+        observation, _ = env.reset(seed=seed)
+        agent.reset(np.random.default_rng(seed))
+        total, done = 0.0, False
+        while not done:
+            action = agent.act(observation, env.planning_model())
+            observation, reward, terminated, truncated, _ = env.step(action)
+            total += float(reward)
+            done = terminated or truncated
+        returns.append(total)
+    return statistics.fmean(returns)
 
 
-def test_a_ppo_adversary_learns_to_beat_the_scripted_baselines():
-    """After 3,000 steps the PPO nature costs the controller more than scripted or random ones."""
-    model = train_adversary(
-        CARTPOLE,
-        balance,
-        args=TrainArgs(total_timesteps=3072, hyperparameters=PPO_SMALL),
-        seed=0,
-        nature_observes_state=True,
-        **POLE,
-    )
-    learned = agents_return(PolicyNature(model, observes_state=True))
-    seat = ns_pz.single_agent(
-        CARTPOLE, NATURE, {DECISION: balance}, nature_observes_state=True, **POLE
-    )
-    untrained = agents_return(
-        PolicyNature(make_model(seat, TrainArgs(hyperparameters=PPO_SMALL), 0), observes_state=True)
-    )
-    every_step = ContinuousScheduler(start=1)
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_ppo_adversary_learns_to_hurt_the_planner(seed):
+    """4,096 steps of PPO in nature's seat cost VI-snapshot far more than random or untrained ones.
+
+    On the slippery-free lake (θ_0 = (1, 0, 0), 0.1 a step, 0.6 an episode, not notified) the
+    planner always reaches the goal when nothing changes or nature moves at random; a learned,
+    state-aware nature makes it fall in about half the time (0.375-0.625 measured over seeds and
+    torch thread counts; one thread here, so the run is reproducible).
+    """
+    torch = pytest.importorskip("torch")
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        model = train_adversary(
+            "ns_pz/FrozenLake-v0",
+            SnapshotValueIteration(gamma=0.99),
+            args=TrainArgs(total_timesteps=4096, hyperparameters=PPO_SMALL),
+            seed=seed,
+            nature_observes_state=True,
+            **LAKE,
+        )
+        seat = ns_pz.single_agent(
+            "ns_pz/FrozenLake-v0",
+            NATURE,
+            {DECISION: SnapshotValueIteration(gamma=0.99)},
+            nature_observes_state=True,
+            **LAKE,
+        )
+        untrained = make_model(seat, TrainArgs(hyperparameters=PPO_SMALL), seed)
+    finally:
+        torch.set_num_threads(threads)
+    learned = planner_return(PolicyNature(model, observes_state=True))
     baselines = {
-        "static": agents_return(None),
-        "random": agents_return(RandomNature(scale=0.05)),
-        "random walk": agents_return(
-            ScriptedNature({"length": RandomWalk(every_step, sigma=0.02)})
-        ),
-        "oscillating": agents_return(
-            ScriptedNature({"length": OscillatingUpdate(every_step, delta=0.02)})
-        ),
-        "longer": agents_return(ScriptedNature({"length": IncrementUpdate(every_step, k=0.02)})),
-        "untrained PPO": untrained,
+        "static": planner_return(None),
+        "random": planner_return(RandomNature(scale=0.05)),
+        "untrained PPO": planner_return(PolicyNature(untrained, observes_state=True)),
     }
-    assert baselines["static"] == 200.0
+    assert baselines["static"] == 1.0
+    assert learned < 0.8
     for name, value in baselines.items():
-        assert learned < value, (name, learned, baselines)
+        assert learned < value - 0.2, (name, learned, baselines)
 
 
 def test_rarl_logs_every_round_and_its_checkpoints_load_and_act_identically(tmp_path):
