@@ -40,7 +40,7 @@ from ns_pz.errors import ResetNeeded
 from ns_pz.family import EnvFamily, State
 from ns_pz.monitor.monitors import Monitor, OracleMonitor
 from ns_pz.monitor.notification import NotificationLevel
-from ns_pz.nature.constraints import NatureConstraints, admit
+from ns_pz.nature.constraints import NatureConstraints, admit, remaining
 from ns_pz.nature.interface import DEFAULT_STEP, NatureInterface
 from ns_pz.nature.policies import Nature, Proposal, StaticNature
 from ns_pz.observations import ObservationBuilder
@@ -272,7 +272,7 @@ class NSProcess:
         budget = self.constraints.total_budget
         if budget is None:
             return math.inf
-        return max(budget - math.fsum(self.spent.values()), 0.0)
+        return remaining(budget, math.fsum(self.spent.values()))
 
     def scripted_proposal(self) -> Proposal:
         """What the configured nature proposes this turn.

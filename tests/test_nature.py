@@ -249,3 +249,30 @@ def test_random_nature_scale_is_checked():
         RandomNature(-1)
     with pytest.raises(TypeError, match="scale='big' must be a real number"):
         RandomNature("big")
+
+
+@pytest.mark.parametrize(
+    "constraints",
+    [
+        NatureConstraints(budget=0.3),
+        NatureConstraints(budget={"masspole": 0.3}),
+        NatureConstraints(lipschitz=0.1, budget={"masspole": 0.3}),
+        NatureConstraints(normalized_budget=0.3 / CartPoleParams.spec("masspole").width),
+    ],
+    ids=["total", "per-parameter", "per-parameter+lipschitz", "normalized"],
+)
+def test_a_budget_spent_exactly_allows_no_rounding_sized_move(constraints):
+    """Steps that sum to the budget exhaust it: no change of a few ulps follows (an oracle
+    monitor would notify it as a change), and the fraction left reads exactly 0."""
+    from ns_pz.nature.constraints import budget_fractions_left
+
+    theta, spent, changes = CartPoleParams(), {}, 0
+    for _ in range(6):
+        new, sizes = admit(theta, {"masspole": theta.masspole + 0.1}, constraints, spent)
+        for name, size in (sizes or {}).items():
+            spent[name] = spent.get(name, 0.0) + size
+        changes += new is not theta
+        theta = new
+    assert changes == 3
+    assert theta.masspole == pytest.approx(0.4, abs=1e-12)
+    assert min(budget_fractions_left(constraints, CartPoleParams, spent)) == 0.0

@@ -346,3 +346,98 @@ def test_a_monitor_seat_paid_by_detection_scores_delay_and_false_alarms():
     assert rewards == [-10.0, 0.0, 0.0, 0.0, -1.0, -1.0, 0.0, 0.0]
     env.reset(seed=0)
     assert env.step(quiet)[1] == 0.0  # nothing pending after a reset
+
+
+def _random_lake_nature():
+    """A nature that draws from its generator (when and how θ moves), so streams are exercised."""
+    from ns_pz.nature import RandomCategorical, RandomScheduler, ScriptedNature
+
+    return ScriptedNature({"slip": RandomCategorical(RandomScheduler(probability=0.4, start=1))})
+
+
+def _lake_policy(obs):
+    """A deterministic decision policy that reads the state and the notification."""
+    return (int(obs["state"]) + int(obs["env_change"][0]) + int(obs["relative_time"][0])) % 4
+
+
+def test_one_seed_gives_one_trajectory_through_the_view_the_game_and_the_agent_seat():
+    """Slippery lake, a random nature, detailed notices: the three drivers see the same episode."""
+    kwargs = {
+        "params": {"slip": (0.6, 0.2, 0.2)},
+        "notification": "detailed",
+        "max_episode_steps": 40,
+        "constraints": BOUNDED,
+    }
+
+    def through_view(env):
+        obs, _ = env.reset(seed=11)
+        trace, done = [obs], False
+        while not done:
+            obs, reward, terminated, truncated, _ = env.step(_lake_policy(obs))
+            trace.append((obs, reward, terminated, truncated))
+            done = terminated or truncated
+        return str(trace), env.ground_truth()
+
+    view = through_view(
+        ns_pz.make_gym("ns_pz/FrozenLake-v0", nature=_random_lake_nature(), **kwargs)
+    )
+    seat = through_view(
+        ns_pz.single_agent("ns_pz/FrozenLake-v0", "agent", nature=_random_lake_nature(), **kwargs)
+    )
+    game = ns_pz.make("ns_pz/FrozenLake-v0", nature=_random_lake_nature(), **kwargs)
+    game.reset(seed=11)
+    trace: list = []
+    while game.agents:
+        agent = game.agent_selection
+        obs, reward, terminated, truncated, _ = game.last()
+        if agent == DECISION and game.rewards:  # the result of the last transition, if any
+            if trace:
+                trace.append((obs, reward, terminated, truncated))
+            else:
+                trace.append(obs)
+        if terminated or truncated:
+            game.step(None)
+        elif agent == DECISION:
+            game.step(_lake_policy(obs))
+        else:
+            game.step(game.policy_action(agent))
+    assert len(view[1].change_times) >= 3  # the nature really moved, at random times
+    assert view == seat == (str(trace), game.ground_truth())
+
+
+@pytest.mark.parametrize("limit", [1, 2, 7])
+def test_regret_and_detection_hold_at_the_shortest_episodes_and_at_the_time_limit(limit):
+    """Episodes of one transition, and episodes cut by the limit: nature's total is still the
+    oracle's value minus the agent's return; the monitor is still paid per turn."""
+    env = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        "nature",
+        {DECISION: lambda obs: 2},
+        nature_reward="regret",
+        constraints=BOUNDED,
+        max_episode_steps=limit,
+        **LAKE,
+    )
+    for seed in range(4):
+        env.reset(seed=seed)
+        total, agent_return, steps, truncated = 0.0, 0.0, 0, False
+        terminated = False
+        while not (terminated or truncated):
+            _, reward, terminated, truncated, _ = env.step(np.array([1, -1, 0], np.float32))
+            total += reward
+            agent_return += env.process.last_reward
+            steps += 1
+        assert steps <= limit and (truncated == (steps == limit and not terminated))
+        assert total == pytest.approx(OracleReference()(env.process) - agent_return)
+    monitor = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        "monitor",
+        {DECISION: lambda obs: 2},
+        monitor_reward="detection",
+        max_episode_steps=limit,
+        **LAKE,
+    )
+    monitor.reset(seed=0)
+    _, reward, terminated, truncated, _ = monitor.step(np.ones(1, np.int64))
+    assert reward == -10.0  # an alarm before any transition is false
+    assert truncated == (limit == 1) or terminated

@@ -244,3 +244,35 @@ def test_own_time_limit_truncates():
     env = ns_pz.make_gym("ns_pz/CartPole-v0", max_episode_steps=2)
     env.reset(seed=0)
     assert env.step(0)[3] is False and env.step(1)[3] is True
+
+
+@pytest.mark.parametrize("keep_nature", [False, True])
+def test_stepping_the_real_env_leaves_its_copies_alone(keep_nature):
+    """A copy's generators, nature memory and budget spent are its own: the original's later
+    steps change nothing in what the copy does."""
+    from ns_pz.nature import NatureConstraints, RandomScheduler, RandomWalk
+
+    def branch_run(step_original: bool) -> tuple:
+        nature = ScriptedNature(
+            {"masspole": RandomWalk(RandomScheduler(probability=0.7, start=0), sigma=0.05)}
+        )
+        env = ns_pz.make_gym(
+            "ns_pz/CartPole-v0",
+            nature=nature,
+            notification="detailed",
+            constraints=NatureConstraints(lipschitz=0.04, budget={"masspole": 0.3}),
+        )
+        env.reset(seed=2)
+        for _ in range(3):
+            env.step(1)
+        twin = env.branch(keep_nature=keep_nature)
+        spent = dict(twin.process.spent)
+        if step_original:
+            for action in (0, 1, 0, 1, 1, 0):
+                env.step(action)
+            assert env.process.spent != spent or not keep_nature
+        assert twin.process.spent == spent
+        trace = [twin.step(a)[0]["state"].tolist() for a in (0, 1, 1, 0, 1)]
+        return trace, twin.ground_truth(), dict(twin.process.spent)
+
+    assert branch_run(False) == branch_run(True)
