@@ -262,8 +262,10 @@ def test_random_nature_scale_is_checked():
     ids=["total", "per-parameter", "per-parameter+lipschitz", "normalized"],
 )
 def test_a_budget_spent_exactly_allows_no_rounding_sized_move(constraints):
-    """Steps that sum to the budget exhaust it: no change of a few ulps follows (an oracle
-    monitor would notify it as a change), and the fraction left reads exactly 0."""
+    """Steps that sum to the budget exhaust it, with no ulp-sized move after them.
+
+    An oracle monitor would notify such a move as a change; the fraction left reads exactly 0.
+    """
     from ns_pz.nature.constraints import budget_fractions_left
 
     theta, spent, changes = CartPoleParams(), {}, 0

@@ -407,8 +407,11 @@ def test_one_seed_gives_one_trajectory_through_the_view_the_game_and_the_agent_s
 
 @pytest.mark.parametrize("limit", [1, 2, 7])
 def test_regret_and_detection_hold_at_the_shortest_episodes_and_at_the_time_limit(limit):
-    """Episodes of one transition, and episodes cut by the limit: nature's total is still the
-    oracle's value minus the agent's return; the monitor is still paid per turn."""
+    """Regret and detection rewards at one-transition episodes and at the time limit.
+
+    Nature's total is still the oracle's value minus the agent's return; the monitor is still
+    paid per turn.
+    """
     env = ns_pz.single_agent(
         "ns_pz/FrozenLake-v0",
         "nature",

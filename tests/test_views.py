@@ -248,8 +248,10 @@ def test_own_time_limit_truncates():
 
 @pytest.mark.parametrize("keep_nature", [False, True])
 def test_stepping_the_real_env_leaves_its_copies_alone(keep_nature):
-    """A copy's generators, nature memory and budget spent are its own: the original's later
-    steps change nothing in what the copy does."""
+    """A copy's generators, nature memory and budget spent are its own.
+
+    The original's later steps change nothing in what the copy does.
+    """
     from ns_pz.nature import NatureConstraints, RandomScheduler, RandomWalk
 
     def branch_run(step_original: bool) -> tuple:
