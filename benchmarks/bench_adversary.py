@@ -273,6 +273,12 @@ def main() -> None:
     parser.add_argument("--agent-steps", type=int, default=30_000, help="agent steps for (b)")
     parser.add_argument("--rounds", type=int, default=3, help="RARL rounds for (b)")
     parser.add_argument("--only", choices=["a", "b"], help="run one part")
+    parser.add_argument(
+        "--settings",
+        nargs="+",
+        choices=sorted({name.split(",")[0] for name in SETTINGS}),
+        help="environments of part (a) to run (default: all)",
+    )
     args = parser.parse_args()
     if args.quick:
         args.seeds, args.episodes, args.nature_steps, args.agent_steps, args.rounds = (
@@ -290,6 +296,8 @@ def main() -> None:
         )
         print("|---|---|---|---|---|---|")
         for name, setting in SETTINGS.items():
+            if args.settings and name.split(",")[0] not in args.settings:
+                continue
             if args.quick:
                 setting = Setting(
                     setting.env_id,
