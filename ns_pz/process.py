@@ -175,6 +175,8 @@ class NSProcess:
         """Set before a reset to continue nature's memory in the next episode instead of starting
         afresh (NS-Gym's persistent parameters); consumed by that reset."""
         self._pending: tuple[int, Any] | None = None
+        self._step_sizes: dict[str, float] | None = None
+        self._last_sizes: dict[str, float] | None = None
 
     # -- seeding and reset ------------------------------------------------------------------
     def seed(self, seed: int | np.random.SeedSequence | None) -> None:
@@ -231,6 +233,7 @@ class NSProcess:
         self.last_reward = 0.0
         self.last_state = self.state
         self.last_change = None
+        self._step_sizes = self._last_sizes = None
         self.notice = (self.no_change, self.no_change)
         self.spent = {}
         self.change_times = []
@@ -305,11 +308,10 @@ class NSProcess:
         theta, sizes = admit(self.theta, proposal, self.constraints, self.spent)
         if theta is self.theta:
             return
-        if sizes is not None:
-            spent = self.spent
-            for name, size in sizes.items():
-                spent[name] = spent.get(name, 0.0) + size
-        self._record_change(theta)
+        spent = self.spent
+        for name, size in sizes.items():
+            spent[name] = spent.get(name, 0.0) + size
+        self._record_change(theta, sizes)
 
     def scripted_notification(self) -> tuple[tuple, tuple]:
         """What the configured monitor says this turn, masked to the level.
@@ -378,19 +380,28 @@ class NSProcess:
         if theta != self.theta:
             self._record_change(theta)
 
-    def _record_change(self, theta: Params) -> None:
-        """Make ``theta`` the θ in force; log it as the change at step ``t`` (one per step)."""
+    def _record_change(self, theta: Params, sizes: dict[str, float] | None = None) -> None:
+        """Make ``theta`` the θ in force; log it as the change at step ``t`` (one per step).
+
+        ``sizes``: the change's size per changed parameter, if known (saves recomputing them
+        for the notification; a second change in the same step forgets them).
+        """
         self.theta = theta
         if self.change_times and self.change_times[-1] == self.t:
             self.change_values[-1] = theta
+            self._step_sizes = None
         else:
             self.change_times.append(self.t)
             self.change_values.append(theta)
+            self._step_sizes = sizes
 
     def last_sizes(self) -> tuple[float, ...]:
         """True size of each parameter's change behind the last transition (zeros if none)."""
         if self.last_change is None:
             return self.no_change
+        sizes = self._last_sizes
+        if sizes is not None:
+            return tuple(map(sizes.get, self.param_names, self.no_change))
         before, after = self.last_change
         return after.change_sizes(before)
 
@@ -428,6 +439,8 @@ class NSProcess:
         else:
             self.last_change = (self.last_theta, theta)
             self.last_theta = theta
+            self._last_sizes = self._step_sizes
+            self._step_sizes = None
         self.t += 1
         limit = self.max_episode_steps
         truncated = limit is not None and self.t >= limit
@@ -566,6 +579,7 @@ class NSProcess:
         twin._seat_seeds = seat_seq
         twin.monitor_memory = self.monitor.initial_memory()
         twin.last_change = None
+        twin._step_sizes = twin._last_sizes = None
         twin.change_times = []
         twin.change_values = []
         twin.spent = {}
@@ -604,6 +618,7 @@ class NSProcess:
         twin._seat_seeds = seat_seq
         twin.monitor_memory = self.monitor.initial_memory()
         twin.last_change = None
+        twin._step_sizes = twin._last_sizes = None
         twin.change_times = []
         twin.change_values = []
         twin.spent = dict(self.spent)

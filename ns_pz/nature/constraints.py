@@ -137,7 +137,7 @@ def admit(
     proposal: Mapping[str, object],
     constraints: NatureConstraints,
     spent: Mapping[str, float],
-) -> tuple[Params, dict[str, float] | None]:
+) -> tuple[Params, dict[str, float]]:
     """Project nature's proposal onto the allowed set.
 
     Args:
@@ -148,8 +148,7 @@ def admit(
 
     Returns:
         The new θ (``theta`` itself when nothing changes) and the size of each change that
-        happened, by parameter name; ``None`` instead of the sizes when no Lipschitz bound or
-        budget applies, as they are then not needed to decide anything.
+        happened, by parameter name (a parameter that did not change may be missing).
 
     Raises:
         UnknownParam: A proposed name is not a parameter.
@@ -158,14 +157,16 @@ def admit(
     owner = type(theta).__name__
     by_name = Params.layout_of(theta).by_name
     granted: dict[str, Value] = {}
+    sizes: dict[str, float] = {}
     if constraints.unconstrained:
         for name, raw in proposal.items():
             spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
             new = spec.project(owner, raw)
-            if new != getattr(theta, name):
+            old = getattr(theta, name)
+            if new != old:
                 granted[name] = new
-        return (theta.evolve_trusted(granted) if granted else theta), None
-    sizes: dict[str, float] = {}
+                sizes[name] = spec.distance(old, new)
+        return (theta.evolve_trusted(granted) if granted else theta), sizes
     for name, raw in proposal.items():
         spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
         old = getattr(theta, name)
