@@ -27,7 +27,7 @@ import difflib
 import itertools
 import math
 import operator
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Self, cast
 
@@ -260,7 +260,12 @@ class Params:
             stops = list(itertools.accumulate(s.size for s in specs))
             slices = tuple((s, stop - s.size, stop) for s, stop in zip(specs, stops, strict=True))
             by_name = {s.name: s for s in specs}
-            layout = _Layout(specs, tuple(s.name for s in specs), by_name, slices)
+            names = tuple(s.name for s in specs)
+            scalars = None
+            if all(s.kind == SCALAR for s in specs):
+                get = operator.attrgetter(*names)
+                scalars = get if len(names) > 1 else (lambda theta, get=get: (get(theta),))
+            layout = _Layout(specs, names, by_name, slices, scalars)
             Params._layouts[cls] = layout
         return layout
 
@@ -342,8 +347,11 @@ class Params:
 
     def flat_values(self) -> list[float]:
         """All parameters as one list of floats, in field order (vectors expanded)."""
+        layout = Params.layout_of(self)
+        if layout.scalars is not None:
+            return list(layout.scalars(self))
         out: list[float] = []
-        for spec in self._layout().specs:
+        for spec in layout.specs:
             value = getattr(self, spec.name)
             if spec.kind == SIMPLEX:
                 out.extend(value)
@@ -383,6 +391,8 @@ class _Layout:
     names: tuple[str, ...]
     by_name: dict[str, ParamSpec]
     slices: tuple[tuple[ParamSpec, int, int], ...]
+    scalars: Callable[[Any], tuple[float, ...]] | None
+    """Every value as a tuple, when all parameters are scalars (a fast path of ``flat``)."""
 
 
 def _spec_of(cls: type, f: dataclasses.Field[Any]) -> ParamSpec:

@@ -121,6 +121,14 @@ class NatureInterface:
         self._state_space = family.observation_space if observes_state else None
         self._action_of_agent = family.action_space if observes_state else None
         self.observation_space = self._observation_space(width)
+        self._slots = {spec.name: (start, stop) for spec, start, stop in self._layout}
+        self._action_low = np.asarray(self.action_space.low, np.float64)
+        self._action_high = np.asarray(self.action_space.high, np.float64)
+        n_budgets = 2 + len(params_cls.names())
+        self._no_budgets = (1.0,) * n_budgets
+        self._budgets_at = 1 + len(width)
+        self._theta0: Params | None = None
+        self._theta0_flat = np.zeros(len(width))
 
     # -- observation ------------------------------------------------------------------------
     def _observation_space(self, width: np.ndarray) -> spaces.Box:
@@ -144,20 +152,34 @@ class NatureInterface:
 
     def observe(self, process: NSProcess) -> np.ndarray:
         """Nature's observation of ``process`` now (a fresh array)."""
-        t = process.t if self._limit is None else process.t / self._limit
-        offset = (process.theta.flat() - process.theta0.flat()) / self._offset_scale
-        budgets = budget_fractions_left(self._constraints, self._params_cls, process.spent)
-        parts = [np.array([t]), offset, np.array(budgets), [float(self._constraints.has_budget)]]
+        out = np.empty(self.observation_space.shape, np.float32)
+        out[0] = process.t if self._limit is None else process.t / self._limit
+        theta0 = process.theta0
+        if theta0 is not self._theta0:  # θ_0 may differ per episode (reset options)
+            self._theta0, self._theta0_flat = theta0, theta0.flat()
+        at = self._budgets_at
+        out[1:at] = (process.theta.flat() - self._theta0_flat) / self._offset_scale
+        constraints = self._constraints
+        if constraints.has_budget:
+            budgets = budget_fractions_left(constraints, self._params_cls, process.spent)
+        else:
+            budgets = self._no_budgets
+        end = at + len(budgets)
+        out[at:end] = budgets
+        out[end] = float(constraints.has_budget)
         if self._state_space is not None:
-            parts.append(spaces.flatten(self._state_space, process.family.observe(process.state)))
+            state = np.asarray(
+                spaces.flatten(self._state_space, process.family.observe(process.state))
+            )
+            stop = end + 1 + state.size
+            out[end + 1 : stop] = state
             assert self._action_of_agent is not None  # set together with _state_space
             last = process.last_action
-            flat_action = spaces.flatten_space(self._action_of_agent)
             if last is None:
-                parts.append(np.zeros(flat_action.shape, np.float32))
+                out[stop:] = 0.0
             else:
-                parts.append(spaces.flatten(self._action_of_agent, last))
-        return np.concatenate(parts).astype(np.float32)
+                out[stop:] = np.asarray(spaces.flatten(self._action_of_agent, last))
+        return out
 
     # -- actions ----------------------------------------------------------------------------
     def proposal(self, action: Any, theta: Params) -> dict[str, Any] | None:
@@ -209,17 +231,23 @@ class NatureInterface:
             theta: The θ in force.
             proposal: New values by parameter name, or ``None``.
         """
-        current = theta.flat()
-        delta = np.zeros_like(current)
-        for spec, start, stop in self._layout:
-            if proposal and spec.name in proposal:
-                delta[start:stop] = (
-                    np.asarray(proposal[spec.name], np.float64) - current[start:stop]
-                )
+        current = theta.flat_values()
+        delta = [0.0] * len(current)
+        if proposal:
+            slots = self._slots
+            for name, value in proposal.items():
+                start, stop = slots[name]
+                if stop - start == 1:
+                    delta[start] = value - current[start]
+                else:
+                    for i, p in enumerate(value, start):
+                        delta[i] = p - current[i]
+        array = np.array(delta)
         if self.action_mode == "normalized":
-            delta = delta / self._offset_scale
-        space = self.action_space
-        return np.clip(delta, space.low, space.high).astype(space.dtype)
+            array /= self._offset_scale
+        np.maximum(array, self._action_low, out=array)
+        np.minimum(array, self._action_high, out=array)
+        return array.astype(self.action_space.dtype)
 
     def _checked(self, action: Any) -> list[float]:
         space = self.action_space
