@@ -412,15 +412,18 @@ def test_regret_and_detection_hold_at_the_shortest_episodes_and_at_the_time_limi
     Nature's total is still the oracle's value minus the agent's return; the monitor is still
     paid per turn.
     """
-    env = ns_pz.single_agent(
-        "ns_pz/FrozenLake-v0",
-        "nature",
-        {DECISION: lambda obs: 2},
-        nature_reward="regret",
-        constraints=BOUNDED,
-        max_episode_steps=limit,
-        **LAKE,
-    )
+
+    def seat(learner, **kwargs):
+        return ns_pz.single_agent(
+            "ns_pz/FrozenLake-v0",
+            learner,
+            {DECISION: lambda obs: 2},
+            max_episode_steps=limit,
+            **LAKE,
+            **kwargs,
+        )
+
+    env = seat("nature", nature_reward="regret", constraints=BOUNDED)
     for seed in range(4):
         env.reset(seed=seed)
         total, agent_return, steps, truncated = 0.0, 0.0, 0, False
@@ -432,14 +435,7 @@ def test_regret_and_detection_hold_at_the_shortest_episodes_and_at_the_time_limi
             steps += 1
         assert steps <= limit and (truncated == (steps == limit and not terminated))
         assert total == pytest.approx(OracleReference()(env.process) - agent_return)
-    monitor = ns_pz.single_agent(
-        "ns_pz/FrozenLake-v0",
-        "monitor",
-        {DECISION: lambda obs: 2},
-        monitor_reward="detection",
-        max_episode_steps=limit,
-        **LAKE,
-    )
+    monitor = seat("monitor", monitor_reward="detection")
     monitor.reset(seed=0)
     _, reward, terminated, truncated, _ = monitor.step(np.ones(1, np.int64))
     assert reward == -10.0  # an alarm before any transition is false
