@@ -50,6 +50,7 @@ class CartPoleKernel(ArrayKernel):
     def __init__(self, family: CartPoleFamily) -> None:
         super().__init__(family, state_shape=(4,), state_dtype=np.float64)
         self._euler = family.kinematics_integrator == "euler"
+        self._ones = np.ones(0)
 
     def step(
         self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
@@ -78,14 +79,14 @@ class CartPoleKernel(ArrayKernel):
             out[:, 0] = x + tau * out[:, 1]
             out[:, 3] = angle_dot + tau * angle_acc
             out[:, 2] = angle + tau * out[:, 3]
-        x, angle = out[:, 0], out[:, 2]
-        terminal = (
-            (x < -X_THRESHOLD)
-            | (x > X_THRESHOLD)
-            | (angle < -THETA_THRESHOLD_RADIANS)
-            | (angle > THETA_THRESHOLD_RADIANS)
-        )
-        return out, np.ones(len(states)), terminal
+        # |x| > bound is the scalar step's two comparisons in one (both false for NaN).
+        terminal = np.abs(out[:, 0]) > X_THRESHOLD
+        terminal |= np.abs(out[:, 2]) > THETA_THRESHOLD_RADIANS
+        ones = self._ones
+        if len(ones) != len(states):
+            ones = self._ones = np.ones(len(states))
+            ones.flags.writeable = False  # shared between calls: the vector env copies it
+        return out, ones, terminal
 
     def observe(self, states: np.ndarray) -> np.ndarray:
         """``[x, x_dot, angle, angle_dot]`` as float32."""

@@ -529,13 +529,15 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             process = self._processes[0]
             process.reset(options)  # checks the options, as the single view does
             theta0 = np.array(process.theta0.flat_values(), np.float64)
-        self._theta[rows] = theta0
-        self._last_theta[rows] = theta0
-        self._t[rows] = 0
-        self._flags[rows] = 0
-        self._sizes[rows] = 0.0
+        # Index arrays: a few rows restart per step, and fancy indexing by them is cheaper
+        # than a boolean mask over every sub-env.
+        self._theta[indices] = theta0
+        self._last_theta[indices] = theta0
+        self._t[indices] = 0
+        self._flags[indices] = 0
+        self._sizes[indices] = 0.0
         assert self._schedule is not None
-        self._schedule.restart(rows)
+        self._schedule.restart(indices, self.num_envs)
         if act:
             self._schedule.act(self, rows)
 
@@ -625,10 +627,10 @@ class _ArraySchedule:
             entries.append((spec, rule, start, stop))
         return cls(entries, owner)
 
-    def restart(self, rows: np.ndarray) -> None:
-        """Zero the firing counts of the sub-envs starting an episode."""
+    def restart(self, rows: np.ndarray, num_envs: int) -> None:
+        """Zero the firing counts of the sub-envs starting an episode (a mask or indices)."""
         if not self._counts:
-            self._counts = [np.zeros(len(rows), np.int64) for _ in self._entries]
+            self._counts = [np.zeros(num_envs, np.int64) for _ in self._entries]
         for counts in self._counts:
             counts[rows] = 0
 
