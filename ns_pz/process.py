@@ -166,7 +166,8 @@ class NSProcess:
         """The notification of this step (flags, sizes), masked to the level; zeros until the
         monitor's turn and after the episode ends."""
         self.spent: dict[str, float] = {}
-        """Change size charged to nature's budget per parameter this episode."""
+        """Change size charged to nature's budget per parameter this episode (nothing is
+        charged when no budget applies)."""
         self.change_times: list[int] = []
         self.change_values: list[Params] = []
         self.nature_memory: Any = None
@@ -305,12 +306,19 @@ class NSProcess:
         self.turn = MONITOR
         if not proposal:
             return
-        theta, sizes = admit(self.theta, proposal, self.constraints, self.spent)
+        theta, sizes = admit(
+            self.theta,
+            proposal,
+            self.constraints,
+            self.spent,
+            sizes_wanted=self.level is not NotificationLevel.NONE,  # the notification's
+        )
         if theta is self.theta:
             return
-        spent = self.spent
-        for name, size in sizes.items():
-            spent[name] = spent.get(name, 0.0) + size
+        if sizes is not None and self.constraints.has_budget:
+            spent = self.spent
+            for name, size in sizes.items():
+                spent[name] = spent.get(name, 0.0) + size
         self._record_change(theta, sizes)
 
     def scripted_notification(self) -> tuple[tuple, tuple]:

@@ -137,7 +137,9 @@ def admit(
     proposal: Mapping[str, object],
     constraints: NatureConstraints,
     spent: Mapping[str, float],
-) -> tuple[Params, dict[str, float]]:
+    *,
+    sizes_wanted: bool = True,
+) -> tuple[Params, dict[str, float] | None]:
     """Project nature's proposal onto the allowed set.
 
     Args:
@@ -145,10 +147,12 @@ def admit(
         proposal: New values for some parameters, by name. Values may be out of bounds.
         constraints: Lipschitz bounds and budgets.
         spent: Change size charged to each parameter so far this episode (missing: 0).
+        sizes_wanted: Compute the change sizes even when no bound or budget needs them.
 
     Returns:
         The new θ (``theta`` itself when nothing changes) and the size of each change that
-        happened, by parameter name (a parameter that did not change may be missing).
+        happened, by parameter name (a parameter that did not change may be missing);
+        ``None`` for the sizes when nothing needed them and they were not wanted.
 
     Raises:
         UnknownParam: A proposed name is not a parameter.
@@ -165,8 +169,10 @@ def admit(
             old = getattr(theta, name)
             if new != old:
                 granted[name] = new
-                sizes[name] = spec.distance(old, new)
-        return (theta.evolve_trusted(granted) if granted else theta), sizes
+                if sizes_wanted:
+                    sizes[name] = spec.distance(old, new)
+        new_theta = theta.evolve_trusted(granted) if granted else theta
+        return new_theta, (sizes if sizes_wanted else None)
     for name, raw in proposal.items():
         spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
         old = getattr(theta, name)
