@@ -84,25 +84,22 @@ class ObservationBuilder:
         self._zero_sizes = np.zeros(count, np.float32)
         self._zero_clock = np.zeros(1, np.float32)
 
-    def agent(self, state: Any, t: int, flags: tuple, sizes: tuple, quiet: bool) -> dict:
+    def agent(self, state: Any, t: int, flags: tuple, sizes: tuple, no_change: tuple) -> dict:
         """The decision agent's observation: one flag and one size per parameter.
 
-        ``quiet`` says the notification is all zero (copying a zero template is cheaper than
-        converting a tuple).
+        ``no_change`` is the process's all-zero tuple: flags or sizes that are it become a copy
+        of a zero template (cheaper than converting a tuple).
         """
         clock = self._zero_clock.copy()
         clock[0] = t
-        if quiet:
-            return {
-                "state": self._observe(state),
-                "env_change": self._zero_flags.copy(),
-                "delta_change": self._zero_sizes.copy(),
-                "relative_time": clock,
-            }
         return {
             "state": self._observe(state),
-            "env_change": np.array(flags, np.int8),
-            "delta_change": np.array(sizes, np.float32),
+            "env_change": self._zero_flags.copy()
+            if flags is no_change
+            else np.array(flags, np.int8),
+            "delta_change": self._zero_sizes.copy()
+            if sizes is no_change
+            else np.array(sizes, np.float32),
             "relative_time": clock,
         }
 

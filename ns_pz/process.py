@@ -475,10 +475,20 @@ class NSProcess:
         total, count = 0.0, 0
         while not self.done and self.turn != seat:
             turn = self.turn
+            # A policy's answer already asked for this turn (``_pending``) is the one played;
+            # otherwise the policy is asked here, once.
             if turn == NATURE:
-                self.nature_turn(self.scripted_proposal())
+                pending = self._pending
+                if pending is None or pending[0] != self.t:
+                    self.nature_turn(self.nature.act(self))
+                else:
+                    self.nature_turn(pending[1])
             elif turn == MONITOR:  # monitor_turn without re-checking the masked notification
-                self.notice = self.scripted_notification()
+                pending = self._pending
+                if pending is None or pending[0] != self.t:
+                    self.notice = self._monitor_says()
+                else:
+                    self.notice = pending[1]
                 self._pending = None
                 self.turn = DECISION
             elif decide is None:
@@ -492,8 +502,8 @@ class NSProcess:
     def agent_observation(self) -> dict[str, Any]:
         """The decision agent's observation now: state, the notification of this step, clock."""
         flags, sizes = self.notice
-        quiet = flags is self.no_change and sizes is self.no_change
-        return self.build.agent(self.state, self.t, flags, sizes, quiet)
+        no_change = self.no_change
+        return self.build.agent(self.state, self.t, flags, sizes, no_change)
 
     def nature_interface(
         self,
