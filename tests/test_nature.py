@@ -252,29 +252,48 @@ def test_random_nature_scale_is_checked():
 
 
 @pytest.mark.parametrize(
-    "constraints",
+    ("constraints", "moves"),
     [
-        NatureConstraints(budget=0.3),
-        NatureConstraints(budget={"masspole": 0.3}),
-        NatureConstraints(lipschitz=0.1, budget={"masspole": 0.3}),
-        NatureConstraints(normalized_budget=0.3 / CartPoleParams.spec("masspole").width),
+        (NatureConstraints(budget=0.8), 8),
+        (NatureConstraints(budget={"masspole": 0.8}), 8),
+        (NatureConstraints(lipschitz=0.1, budget={"masspole": 0.8}), 8),
+        (NatureConstraints(normalized_budget=0.3 / CartPoleParams.spec("masspole").width), 3),
     ],
     ids=["total", "per-parameter", "per-parameter+lipschitz", "normalized"],
 )
-def test_a_budget_spent_exactly_allows_no_rounding_sized_move(constraints):
+def test_a_budget_spent_exactly_allows_no_rounding_sized_move(constraints, moves):
     """Steps that sum to the budget exhaust it, with no ulp-sized move after them.
 
-    An oracle monitor would notify such a move as a change; the fraction left reads exactly 0.
+    In floats, eight steps of 0.1 leave 1.1e-16 of a budget of 0.8, and three steps of 0.1
+    leave 2e-16 of a normalised 0.3: a move that size would be notified as a change by an
+    oracle monitor. The fraction left must read exactly 0.
     """
     from ns_pz.nature.constraints import budget_fractions_left
 
     theta, spent, changes = CartPoleParams(), {}, 0
-    for _ in range(6):
+    for _ in range(moves + 4):
         new, sizes = admit(theta, {"masspole": theta.masspole + 0.1}, constraints, spent)
         for name, size in (sizes or {}).items():
             spent[name] = spent.get(name, 0.0) + size
         changes += new is not theta
         theta = new
-    assert changes == 3
-    assert theta.masspole == pytest.approx(0.4, abs=1e-12)
+    assert changes == moves
+    assert theta.masspole == pytest.approx(0.1 + 0.1 * moves, abs=1e-12)
     assert min(budget_fractions_left(constraints, CartPoleParams, spent)) == 0.0
+
+
+def test_action_of_refuses_proposals_that_do_not_fit_theta():
+    """A name θ does not have, or a probability vector of the wrong length, is refused."""
+    from ns_pz.envs.frozen_lake import FrozenLakeFamily
+
+    from ns_pz.nature.interface import NatureInterface
+
+    family = FrozenLakeFamily()
+    interface = NatureInterface(family, FrozenLakeParams(), NatureConstraints(), 100)
+    with pytest.raises(UnknownParam, match="nope"):
+        interface.action_of(FrozenLakeParams(), {"nope": 1.0})
+    for short_or_long in [(0.5, 0.5), (0.25, 0.25, 0.25, 0.25)]:
+        with pytest.raises(ValueError, match="has 3"):
+            interface.action_of(FrozenLakeParams(), {"slip": short_or_long})
+    action = interface.action_of(FrozenLakeParams(), {"slip": (1.0, 0.0, 0.0)})
+    assert action.shape == (3,) and action.dtype == np.float32

@@ -439,4 +439,4 @@ def test_regret_and_detection_hold_at_the_shortest_episodes_and_at_the_time_limi
     monitor.reset(seed=0)
     _, reward, terminated, truncated, _ = monitor.step(np.ones(1, np.int64))
     assert reward == -10.0  # an alarm before any transition is false
-    assert truncated == (limit == 1) or terminated
+    assert (truncated == (limit == 1)) or terminated

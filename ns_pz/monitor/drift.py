@@ -346,10 +346,9 @@ class PredictionErrorMonitor(Detector):
         theta = np.tile(reference.flat(), (count, 1))
         columns = self._columns
         theta[np.arange(count), [columns[n] for n, _ in rows]] = [v for _, v in rows]
-        reps = (count, *([1] * (states.ndim - 1)))
         predicted, _, _ = kernel.step(
-            np.tile(states, reps),
-            np.tile(actions, count),
+            np.tile(states, (count, *([1] * (states.ndim - 1)))),
+            np.tile(actions, (count, *([1] * (actions.ndim - 1)))),
             np.repeat(theta, steps, axis=0),
             None,
         )

@@ -236,12 +236,21 @@ class NatureInterface:
         if proposal:
             slots = self._slots
             for name, value in proposal.items():
-                start, stop = slots[name]
+                slot = slots.get(name)
+                if slot is None:
+                    theta.spec(name)  # raises UnknownParam
+                    continue
+                start, stop = slot
                 if stop - start == 1:
                     delta[start] = value - current[start]
-                else:
-                    for i, p in enumerate(value, start):
-                        delta[i] = p - current[i]
+                    continue
+                if len(value) != stop - start:
+                    raise ValueError(
+                        f"proposal[{name!r}]={value!r} has {len(value)} elements; "
+                        f"{name!r} has {stop - start}"
+                    )
+                for i, p in enumerate(value, start):
+                    delta[i] = p - current[i]
         array = np.array(delta)
         if self.action_mode == "normalized":
             array /= self._offset_scale
