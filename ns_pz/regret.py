@@ -103,9 +103,10 @@ class ReplayReference:
         """The mean return of the replays of ``process``'s finished episode."""
         from ns_pz.process import NSProcess
 
+        # Built on the base θ_0 (a monitor is bound to one), started from the episode's own.
         replay = NSProcess(
             process.family,
-            params=process.theta0,
+            params=process.base_theta0,
             nature=TrajectoryNature(process.change_times, process.change_values),
             monitor=process.monitor,
             notification=process.level,
@@ -115,7 +116,7 @@ class ReplayReference:
         total = 0.0
         for _ in range(self.episodes):
             replay.seed(np.random.SeedSequence(rng.integers(2**63)))
-            replay.reset()
+            replay.reset({"params": process.theta0})
             replay.state = replay.initial_state = process.initial_state
             self.decide.reset(replay.seat_rng())
             episode_return, _ = replay.play_until(None, self.decide)

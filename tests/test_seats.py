@@ -440,3 +440,33 @@ def test_regret_and_detection_hold_at_the_shortest_episodes_and_at_the_time_limi
     _, reward, terminated, truncated, _ = monitor.step(np.ones(1, np.int64))
     assert reward == -10.0  # an alarm before any transition is false
     assert (truncated == (limit == 1)) or terminated
+
+
+def test_replay_regret_with_a_detector_and_a_per_episode_theta0():
+    """Replay regret with a detector and an episode's own θ_0 (``reset(options=...)``).
+
+    The replay shares the episode's detector, bound to the base θ_0, and starts from the
+    episode's θ_0: no rebinding error, and on the deterministic CartPole the agent's own replay
+    gives it no regret. A 2 cm pole falls in 4 steps; from the base θ_0 the replay would
+    balance for all 30, a regret of 26.
+    """
+    from ns_pz.monitor import PredictionErrorMonitor
+
+    env = ns_pz.single_agent(
+        "ns_pz/CartPole-v0",
+        "nature",
+        {DECISION: balance},
+        nature_reward="regret",
+        regret_reference=ReplayReference(balance),
+        monitor=PredictionErrorMonitor(),
+        notification="detailed",
+        max_episode_steps=30,
+    )
+    env.reset(seed=0, options={"params": {"length": 0.02}})
+    total, done = 0.0, False
+    while not done:
+        _, reward, terminated, truncated, _ = env.step(np.zeros(6, np.float32))
+        total += reward
+        done = terminated or truncated
+    assert env.process.theta0.length == 0.02 and env.process.t == 4
+    assert total == pytest.approx(0.0)
