@@ -406,7 +406,7 @@ def measure_planning(name: str, repeats: int) -> None:
         print(f"  {name} NS-Gym get_planning_env(): {ng_copy * 1e6:.1f} us")
 
 
-VECTOR_ENVS = ("CartPole", "FrozenLake", "CliffWalking", "Bridge", "MountainCar")
+VECTOR_ENVS = ("CartPole", "FrozenLake", "CliffWalking", "Bridge", "MountainCar", "Pendulum")
 
 
 def time_vector(env: gym.vector.VectorEnv, actions: list[np.ndarray]) -> float:

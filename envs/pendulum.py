@@ -38,10 +38,14 @@ State = tuple[float, float]
 
 MAX_SPEED = 8.0
 MAX_TORQUE = 2.0
-_TWO_PI = 2 * math.pi
-_START_HIGH = np.array([math.pi, 1.0])
-_START_LOW = -_START_HIGH
-_TORQUE_COST_32 = f32(0.001)
+TWO_PI = 2 * math.pi
+"""The period the angle is normalised by in the cost."""
+START_HIGH = np.array([math.pi, 1.0])
+"""Upper corner of the uniform start box (angle, angular velocity)."""
+START_LOW = -START_HIGH
+"""Lower corner of the start box."""
+TORQUE_COST_32 = f32(0.001)
+"""The torque cost's coefficient as NumPy holds it beside a float32 torque (float32)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,7 +76,7 @@ class PendulumFamily(EnvFamily):
 
     def initial_state(self, rng: np.random.Generator) -> State:
         """Angle uniform in [-π, π], velocity in [-1, 1] (Gymnasium's default reset)."""
-        angle, velocity = rng.uniform(low=_START_LOW, high=_START_HIGH).tolist()
+        angle, velocity = rng.uniform(low=START_LOW, high=START_HIGH).tolist()
         return (angle, velocity)
 
     def check_action(self, action: Any) -> np.ndarray:
@@ -94,11 +98,11 @@ class PendulumFamily(EnvFamily):
         angle, velocity = state
         torque = min(max(f32(float(action[0])), -MAX_TORQUE), MAX_TORQUE)
         gravity, mass, length, dt = theta.gravity, theta.mass, theta.length, theta.dt
-        normalized = ((angle + math.pi) % _TWO_PI) - math.pi
+        normalized = ((angle + math.pi) % TWO_PI) - math.pi
         # 0.001 * u**2 and 3 / (m l²) * u are float32 products; u**2 is NumPy's float32 scalar
         # power (the C library's powf, which may differ from u * u in the last bit).
         square = float(np.float32(torque) ** 2)
-        cost = normalized**2 + 0.1 * velocity**2 + f32(_TORQUE_COST_32 * square)
+        cost = normalized**2 + 0.1 * velocity**2 + f32(TORQUE_COST_32 * square)
         push = f32(f32(3.0 / (mass * length**2)) * torque)
         new_velocity = velocity + (3 * gravity / (2 * length) * math.sin(angle) + push) * dt
         new_velocity = min(max(new_velocity, -MAX_SPEED), MAX_SPEED)

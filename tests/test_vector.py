@@ -52,6 +52,16 @@ CASES = [
     ("ns_pz/MountainCarContinuous-v0", RandomNature(0.05), "processes"),
     ("ns_pz/Acrobot-v0", None, "processes"),
     ("ns_pz/Pendulum-v0", RandomNature(0.05), "processes"),
+    (
+        "ns_pz/Pendulum-v0",
+        ScriptedNature(
+            {
+                "mass": IncrementUpdate(ContinuousScheduler(start=1), 0.01),
+                "dt": StepWiseUpdate(PeriodicScheduler(7, start=3), [0.04, 0.06]),
+            }
+        ),
+        "arrays",
+    ),
 ]
 
 
@@ -248,3 +258,23 @@ def test_every_registered_id_batches(env_id: str) -> None:
         obs, rewards, terminated, truncated, _ = vec.step(vec.action_space.sample())
         assert vec.observation_space.contains(obs)
         assert rewards.shape == terminated.shape == truncated.shape == (3,)
+
+
+def test_pendulum_kernel_squares_as_the_scalar_step_does() -> None:
+    """The kernel's squares equal Python's ``x ** 2`` and NumPy's scalar float32 power.
+
+    Bit for bit, where NumPy's array arithmetic differs from both.
+    """
+    from ns_pz.envs.batched import _pow2, _powf2
+
+    rng = np.random.default_rng(5)
+    x = rng.uniform(-8.0, 8.0, 100_000)
+    assert _pow2(x).tolist() == [v**2 for v in x.tolist()]
+    assert (x * x).tolist() != [v**2 for v in x.tolist()]
+    torques = rng.uniform(-2.0, 2.0, 100_000).astype(np.float32)
+    ties = np.array([1 + 2**-12, 1.5 + 2**-12, 2**-70, 1e-30, 0.0, -0.0], np.float32)
+    torques = np.concatenate([torques, ties, -ties]).astype(np.float64)
+    expected = [float(np.float32(t) ** 2) for t in torques.tolist()]
+    assert _powf2(torques).tolist() == expected
+    plain = (torques * torques).astype(np.float32).astype(np.float64)
+    assert plain.tolist() != expected  # the kernel cannot square with array arithmetic
