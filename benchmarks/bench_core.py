@@ -406,7 +406,15 @@ def measure_planning(name: str, repeats: int) -> None:
         print(f"  {name} NS-Gym get_planning_env(): {ng_copy * 1e6:.1f} us")
 
 
-VECTOR_ENVS = ("CartPole", "FrozenLake", "CliffWalking", "Bridge", "MountainCar", "Pendulum")
+VECTOR_ENVS = (
+    "CartPole",
+    "FrozenLake",
+    "CliffWalking",
+    "Bridge",
+    "MountainCar",
+    "Pendulum",
+    "Acrobot",
+)
 
 
 def time_vector(env: gym.vector.VectorEnv, actions: list[np.ndarray]) -> float:

@@ -48,10 +48,13 @@ MAX_VEL_2 = 9 * math.pi
 TORQUES = (-1.0, 0.0, 1.0)
 """Torque of each action, N·m."""
 
-_PI = math.pi
-_TWO_PI = math.pi - (-math.pi)  # Gymnasium's wrap(x, -pi, pi) steps by M - m
-_HALF_PI = math.pi / 2.0
-_WRAP_LOOP_LIMIT = 1000 * _TWO_PI
+PI = math.pi
+"""The wrapping bound of the angles (Gymnasium's ``wrap(x, -pi, pi)``)."""
+TWO_PI = math.pi - (-math.pi)  # Gymnasium's wrap(x, -pi, pi) steps by M - m
+"""The wrapping step."""
+HALF_PI = math.pi / 2.0
+"""π/2 as Gymnasium computes it."""
+WRAP_LOOP_LIMIT = 1000 * TWO_PI
 """Beyond this |angle|, wrap by one remainder instead of Gymnasium's repeated subtraction."""
 
 
@@ -134,8 +137,8 @@ class AcrobotFamily(EnvFamily):
         k4 = derivatives(t1 + dt * k3[0], t2 + dt * k3[1], d1 + dt * k3[2], d2 + dt * k3[3])
         sixth = dt / 6.0
         # y0 + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4), element by element, in NumPy's order.
-        t1 = _wrap(t1 + sixth * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]))
-        t2 = _wrap(t2 + sixth * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]))
+        t1 = wrap_angle(t1 + sixth * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]))
+        t2 = wrap_angle(t2 + sixth * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]))
         d1 = min(max(d1 + sixth * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]), -MAX_VEL_1), MAX_VEL_1)
         d2 = min(max(d2 + sixth * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3]), -MAX_VEL_2), MAX_VEL_2)
         terminal = -math.cos(t1) - math.cos(t2 + t1) > 1.0
@@ -212,11 +215,11 @@ def _derivatives(theta: AcrobotParams, torque: float) -> Derivatives:
         sin2 = sin(theta2)
         d1 = d1_a + m2 * (d1_b + d1_c * cos2) + i1 + i2
         d2 = m2 * (d2_a + d2_b * cos2) + i2
-        phi2 = phi2_a * cos(theta1 + theta2 - _HALF_PI)
+        phi2 = phi2_a * cos(theta1 + theta2 - HALF_PI)
         phi1 = (
             phi1_a * dtheta2**2 * sin2
             - phi1_b * dtheta2 * dtheta1 * sin2
-            + phi1_c * cos(theta1 - _HALF_PI)
+            + phi1_c * cos(theta1 - HALF_PI)
             + phi2
         )
         ddtheta2 = (torque + d2 / d1 * phi1 - coriolis * dtheta1**2 * sin2 - phi2) / (
@@ -228,17 +231,17 @@ def _derivatives(theta: AcrobotParams, torque: float) -> Derivatives:
     return derivatives
 
 
-def _wrap(angle: float) -> float:
+def wrap_angle(angle: float) -> float:
     """Gymnasium's ``wrap(angle, -pi, pi)``: add or subtract 2π until inside [-π, π].
 
     Angles beyond 1000 turns (reachable only with extreme θ) are first reduced by one
     ``math.remainder``: Gymnasium would loop over a thousand times there, and forever past
     2^53 turns.
     """
-    if not -_WRAP_LOOP_LIMIT <= angle <= _WRAP_LOOP_LIMIT:
-        angle = math.remainder(angle, _TWO_PI)
-    while angle > _PI:
-        angle = angle - _TWO_PI
-    while angle < -_PI:
-        angle = angle + _TWO_PI
+    if not -WRAP_LOOP_LIMIT <= angle <= WRAP_LOOP_LIMIT:
+        angle = math.remainder(angle, TWO_PI)
+    while angle > PI:
+        angle = angle - TWO_PI
+    while angle < -PI:
+        angle = angle + TWO_PI
     return angle

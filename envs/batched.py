@@ -22,6 +22,18 @@ import math
 from typing import Any
 
 import numpy as np
+from ns_pz.envs.acrobot import GRAVITY as ACROBOT_GRAVITY
+from ns_pz.envs.acrobot import (
+    HALF_PI,
+    MAX_VEL_1,
+    MAX_VEL_2,
+    PI,
+    WRAP_LOOP_LIMIT,
+    AcrobotFamily,
+    wrap_angle,
+)
+from ns_pz.envs.acrobot import TORQUES as ACROBOT_TORQUES
+from ns_pz.envs.acrobot import TWO_PI as ACROBOT_TWO_PI
 from ns_pz.envs.cartpole import THETA_THRESHOLD_RADIANS, X_THRESHOLD, CartPoleFamily
 from ns_pz.envs.grid import SlipGridFamily
 from ns_pz.envs.mountain_car import (
@@ -239,6 +251,116 @@ class PendulumKernel(ArrayKernel):
         return np.stack((np.cos(angle), np.sin(angle), states[:, 1]), axis=1).astype(np.float32)
 
 
+class AcrobotKernel(ArrayKernel):
+    """Acrobot: states ``(N, 4)`` (θ1, θ2, dθ1, dθ2); θ columns in :class:`AcrobotParams` order.
+
+    Gymnasium's RK4 step with the "book" equations, every operation in the scalar step's order
+    (:func:`ns_pz.envs.acrobot._derivatives`); its squares call the C library's ``pow`` per
+    element (:func:`_pow2`), as Python's ``**`` does. With torque noise, one uniform per
+    transition, drawn as the scalar step draws it.
+    """
+
+    reset_uniforms = 4
+
+    def __init__(self, family: AcrobotFamily) -> None:
+        super().__init__(family, state_shape=(4,), state_dtype=np.float64)
+        self._noise = family.torque_noise_max
+        self.step_uniforms = 1 if self._noise > 0 else 0
+        self._torques = np.array(ACROBOT_TORQUES)
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Uniform in [-0.1, 0.1]^4, rounded to float32 (as the family's ``initial_state``)."""
+        return _uniform(-0.1, 0.1, uniforms).astype(np.float32).astype(np.float64)
+
+    def step(
+        self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One RK4 step of length ``dt`` for every row."""
+        torque = self._torques[actions]
+        if self._noise > 0:
+            torque = torque + _uniform(-self._noise, self._noise, uniforms)
+        l1, _, m1, m2, lc1, lc2, moi, dt = theta.T
+        lc2_sq = _pow2(lc2)
+        d1_a = m1 * _pow2(lc1)
+        d1_b = _pow2(l1) + lc2_sq
+        d1_c = 2 * l1 * lc2
+        d2_b = l1 * lc2
+        phi2_a = m2 * lc2 * ACROBOT_GRAVITY
+        phi1_a = -m2 * l1 * lc2
+        phi1_b = 2 * m2 * l1 * lc2
+        phi1_c = (m1 * lc1 + m2 * l1) * ACROBOT_GRAVITY
+        coriolis = m2 * l1 * lc2
+        den_a = m2 * lc2_sq + moi
+
+        def derivatives(
+            t1: np.ndarray, t2: np.ndarray, v1: np.ndarray, v2: np.ndarray
+        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+            cos2 = np.cos(t2)
+            sin2 = np.sin(t2)
+            d1 = d1_a + m2 * (d1_b + d1_c * cos2) + moi + moi
+            d2 = m2 * (lc2_sq + d2_b * cos2) + moi
+            phi2 = phi2_a * np.cos(t1 + t2 - HALF_PI)
+            phi1 = (
+                phi1_a * _pow2(v2) * sin2
+                - phi1_b * v2 * v1 * sin2
+                + phi1_c * np.cos(t1 - HALF_PI)
+                + phi2
+            )
+            dd2 = (torque + d2 / d1 * phi1 - coriolis * _pow2(v1) * sin2 - phi2) / (
+                den_a - _pow2(d2) / d1
+            )
+            dd1 = -(d2 * dd2 + phi1) / d1
+            return v1, v2, dd1, dd2
+
+        half = dt / 2.0
+        t1, t2, v1, v2 = states.T
+        k1 = derivatives(t1, t2, v1, v2)
+        k2 = derivatives(t1 + half * k1[0], t2 + half * k1[1], v1 + half * k1[2], v2 + half * k1[3])
+        k3 = derivatives(t1 + half * k2[0], t2 + half * k2[1], v1 + half * k2[2], v2 + half * k2[3])
+        k4 = derivatives(t1 + dt * k3[0], t2 + dt * k3[1], v1 + dt * k3[2], v2 + dt * k3[3])
+        sixth = dt / 6.0
+        out = np.empty_like(states)
+        for j, (y, low, high) in enumerate(
+            (
+                (t1, None, None),
+                (t2, None, None),
+                (v1, -MAX_VEL_1, MAX_VEL_1),
+                (v2, -MAX_VEL_2, MAX_VEL_2),
+            )
+        ):
+            value = y + sixth * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j])
+            out[:, j] = (
+                _wrap_angles(value) if low is None else np.minimum(np.maximum(value, low), high)
+            )
+        t1, t2 = out[:, 0], out[:, 1]
+        terminal = -np.cos(t1) - np.cos(t2 + t1) > 1.0
+        return out, np.where(terminal, 0.0, -1.0), terminal
+
+    def observe(self, states: np.ndarray) -> np.ndarray:
+        """``[cos θ1, sin θ1, cos θ2, sin θ2, dθ1, dθ2]`` as float32."""
+        t1, t2 = states[:, 0], states[:, 1]
+        columns = (np.cos(t1), np.sin(t1), np.cos(t2), np.sin(t2), states[:, 2], states[:, 3])
+        return np.stack(columns, axis=1).astype(np.float32)
+
+
+def _wrap_angles(angles: np.ndarray) -> np.ndarray:
+    """:func:`ns_pz.envs.acrobot._wrap` of every element (repeated steps of 2π, as Gymnasium)."""
+    far = np.flatnonzero(~(np.abs(angles) <= WRAP_LOOP_LIMIT))
+    for i in far:
+        angles[i] = wrap_angle(float(angles[i]))
+    while True:
+        above = angles > PI
+        if not above.any():
+            break
+        angles[above] = angles[above] - ACROBOT_TWO_PI
+    while True:
+        below = angles < -PI
+        if not below.any():
+            break
+        angles[below] = angles[below] + ACROBOT_TWO_PI
+    return angles
+
+
 _POW = np.frompyfunc(math.pow, 2, 1)
 
 
@@ -279,4 +401,6 @@ def kernel_for(family: EnvFamily) -> BatchKernel:
         return MountainCarKernel(family)
     if type(family) is PendulumFamily:
         return PendulumKernel(family)
+    if type(family) is AcrobotFamily:
+        return AcrobotKernel(family)
     return LoopKernel(family)

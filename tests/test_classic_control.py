@@ -495,7 +495,7 @@ def test_bad_constructor_arguments_are_refused(env_id, kwargs, error, message):
 
 def test_acrobot_wrap_subtracts_like_gymnasium_and_survives_huge_angles():
     """Up to 1000 turns the wrap is Gymnasium's repeated ±2π; beyond, one remainder, in range."""
-    from ns_pz.envs.acrobot import _wrap
+    from ns_pz.envs.acrobot import wrap_angle as _wrap
 
     two_pi = math.pi - (-math.pi)
     for angle in (3.5, -9.0, 250.0, -6000.0):

@@ -50,7 +50,13 @@ CASES = [
         "arrays",
     ),
     ("ns_pz/MountainCarContinuous-v0", RandomNature(0.05), "processes"),
-    ("ns_pz/Acrobot-v0", None, "processes"),
+    ("ns_pz/Acrobot-v0", None, "arrays"),
+    (
+        "ns_pz/Acrobot-v0",
+        ScriptedNature({"link_mass_2": IncrementUpdate(ContinuousScheduler(start=1), 0.05)}),
+        "arrays",
+    ),
+    ("ns_pz/Acrobot-v0", RandomNature(0.05), "processes"),
     ("ns_pz/Pendulum-v0", RandomNature(0.05), "processes"),
     (
         "ns_pz/Pendulum-v0",
@@ -278,3 +284,26 @@ def test_pendulum_kernel_squares_as_the_scalar_step_does() -> None:
     assert _powf2(torques).tolist() == expected
     plain = (torques * torques).astype(np.float32).astype(np.float64)
     assert plain.tolist() != expected  # the kernel cannot square with array arithmetic
+
+
+def test_acrobot_kernel_draws_torque_noise_as_the_single_views() -> None:
+    """With ``torque_noise_max`` each transition draws one uniform from its sub-env's stream."""
+    n, seed = 3, 4
+    vec = make_vec("ns_pz/Acrobot-v0", n, torque_noise_max=0.5, max_episode_steps=30)
+    assert vec.engine == "arrays" and vec.kernel.step_uniforms == 1
+    views = [
+        make_gym("ns_pz/Acrobot-v0", torque_noise_max=0.5, max_episode_steps=30) for _ in range(n)
+    ]
+    obs, _ = vec.reset(seed=seed)
+    singles = [view.reset(seed=seed + i)[0] for i, view in enumerate(views)]
+    _same(obs, singles)
+    for step in range(25):
+        actions = np.array([(step + i) % 3 for i in range(n)])
+        obs, *_ = vec.step(actions)
+        singles = [view.step(int(a))[0] for view, a in zip(views, actions, strict=True)]
+        _same(obs, singles)
+    quiet = make_gym("ns_pz/Acrobot-v0", max_episode_steps=30)
+    quiet.reset(seed=seed)
+    for step in range(25):
+        last = quiet.step(step % 3)[0]
+    assert not np.array_equal(last["state"], singles[0]["state"])  # the noise mattered
