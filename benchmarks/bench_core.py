@@ -412,6 +412,7 @@ VECTOR_ENVS = (
     "CliffWalking",
     "Bridge",
     "MountainCar",
+    "MountainCarContinuous",
     "Pendulum",
     "Acrobot",
 )

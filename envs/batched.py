@@ -37,10 +37,17 @@ from ns_pz.envs.acrobot import TWO_PI as ACROBOT_TWO_PI
 from ns_pz.envs.cartpole import THETA_THRESHOLD_RADIANS, X_THRESHOLD, CartPoleFamily
 from ns_pz.envs.grid import SlipGridFamily
 from ns_pz.envs.mountain_car import (
+    CONTINUOUS_GOAL_POSITION,
+    GOAL_32,
     GOAL_POSITION,
     MAX_POSITION,
+    MAX_POSITION_32,
     MAX_SPEED,
+    MAX_SPEED_32,
     MIN_POSITION,
+    MIN_POSITION_32,
+    ContinuousState,
+    MountainCarContinuousFamily,
     MountainCarFamily,
 )
 from ns_pz.envs.pendulum import MAX_SPEED as PENDULUM_MAX_SPEED
@@ -147,6 +154,85 @@ class MountainCarKernel(ArrayKernel):
     def observe(self, states: np.ndarray) -> np.ndarray:
         """``[position, velocity]`` as float32."""
         return states.astype(np.float32)
+
+
+class MountainCarContinuousKernel(ArrayKernel):
+    """MountainCarContinuous: states ``(N, 3)`` (position, velocity, 1.0 once stored as float32).
+
+    Gymnasium's start state is float64 and every later state float32, and a step's arithmetic
+    depends on which (see :mod:`ns_pz.envs.mountain_car`): both branches are computed for every
+    row, each with the scalar step's roundings, and each row keeps its own; θ columns gravity,
+    power.
+    """
+
+    reset_uniforms = 1
+
+    def __init__(self, family: MountainCarContinuousFamily) -> None:
+        super().__init__(family, state_shape=(3,), state_dtype=np.float64)
+        self._goal = family.goal_velocity
+        self._goal_32 = float(np.float32(family.goal_velocity))
+
+    def initial_from_uniforms(self, uniforms: np.ndarray) -> np.ndarray:
+        """Position uniform in [-0.6, -0.4], at rest, float64 (as ``initial_state``)."""
+        position = _uniform(-0.6, -0.4, uniforms[:, 0])
+        zeros = np.zeros_like(position)
+        return np.stack((position, zeros, zeros), axis=1)
+
+    def pack(self, state: ContinuousState) -> Any:  # type: ignore[override]
+        """``(position, velocity, stored_as_float32)`` as a row (the flag as 0.0 / 1.0)."""
+        return (state[0], state[1], 1.0 if state[2] else 0.0)
+
+    def unpack(self, row: np.ndarray) -> ContinuousState:
+        """A row as the family's state (the flag back as a bool)."""
+        position, velocity, stored = row.tolist()
+        return (position, velocity, stored != 0.0)
+
+    def step(
+        self, states: np.ndarray, actions: np.ndarray, theta: np.ndarray, uniforms: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The scalar step's float64 (first step) or float32 arithmetic, row by row."""
+        position, velocity = states[:, 0], states[:, 1]
+        stored = states[:, 2] != 0.0
+        gravity, power = theta.T
+        push = actions[:, 0].astype(np.float64)
+        three = 3 * position
+        slope = gravity * np.cos(np.where(stored, _f32(three), three))
+        clipped = np.copysign(power, push) - slope
+        change = np.where(
+            (push >= -1.0) & (push <= 1.0),
+            _f32(_f32(push * _f32(power)) - _f32(slope)),
+            np.where(stored, _f32(clipped), clipped),
+        )
+        # From a float64 state (the first step): plain double arithmetic, then stored as float32.
+        v64 = np.minimum(np.maximum(velocity + change, -MAX_SPEED), MAX_SPEED)
+        p64 = np.minimum(np.maximum(position + v64, MIN_POSITION), MAX_POSITION)
+        v64 = np.where((p64 == MIN_POSITION) & (v64 < 0), 0.0, v64)
+        end64 = (p64 >= CONTINUOUS_GOAL_POSITION) & (v64 >= self._goal)
+        # From a float32 state: float32 sums; a clipped value is Gymnasium's Python float.
+        v32 = _f32(velocity + change)
+        exact = (v32 <= MAX_SPEED_32) & (v32 >= -MAX_SPEED_32)
+        v32 = np.minimum(np.maximum(v32, -MAX_SPEED_32), MAX_SPEED_32)
+        p32 = _f32(position + v32)
+        above, below = p32 > MAX_POSITION_32, p32 < MIN_POSITION_32
+        p32 = np.minimum(np.maximum(p32, MIN_POSITION_32), MAX_POSITION_32)
+        at_wall = below | (~above & (p32 == MIN_POSITION_32))
+        at_goal = above | (~below & (p32 >= GOAL_32))
+        stop = at_wall & (v32 < 0)
+        v32 = np.where(stop, 0.0, v32)
+        exact &= ~stop
+        python_float = np.where(v32 == 0.0, 0.0, np.copysign(MAX_SPEED, v32))
+        end32 = at_goal & np.where(exact, v32 >= self._goal_32, python_float >= self._goal)
+        out = np.empty_like(states)
+        out[:, 0] = np.where(stored, p32, _f32(p64))
+        out[:, 1] = np.where(stored, v32, _f32(v64))
+        out[:, 2] = 1.0
+        terminal = np.where(stored, end32, end64)
+        reward = np.where(terminal, 100.0, 0.0) - _pow2(push) * 0.1
+        return out, reward, terminal
+
+    def observe(self, states: np.ndarray) -> np.ndarray:
+        """``[position, velocity]`` as float32."""
+        return states[:, :2].astype(np.float32)
 
 
 class SlipGridKernel(ArrayKernel):
@@ -401,6 +487,8 @@ def kernel_for(family: EnvFamily) -> BatchKernel:
         return MountainCarKernel(family)
     if type(family) is PendulumFamily:
         return PendulumKernel(family)
+    if type(family) is MountainCarContinuousFamily:
+        return MountainCarContinuousKernel(family)
     if type(family) is AcrobotFamily:
         return AcrobotKernel(family)
     return LoopKernel(family)

@@ -43,11 +43,14 @@ GOAL_POSITION = 0.5
 CONTINUOUS_GOAL_POSITION = 0.45
 """Goal of the continuous env."""
 
-# The constants as NumPy sees them when it compares them with a float32 value.
-_MIN_POSITION_32 = f32(MIN_POSITION)
-_MAX_POSITION_32 = f32(MAX_POSITION)
-_MAX_SPEED_32 = f32(MAX_SPEED)
-_GOAL_32 = f32(CONTINUOUS_GOAL_POSITION)
+MIN_POSITION_32 = f32(MIN_POSITION)
+"""The left wall as NumPy sees it beside a float32 value (its float32 rounding)."""
+MAX_POSITION_32 = f32(MAX_POSITION)
+"""The right bound beside a float32 value."""
+MAX_SPEED_32 = f32(MAX_SPEED)
+"""The speed limit beside a float32 value."""
+GOAL_32 = f32(CONTINUOUS_GOAL_POSITION)
+"""The continuous env's goal beside a float32 value."""
 
 _STATE_FIELDS = ("position", "velocity")
 _STATE_BOUNDS = ((MIN_POSITION, MAX_POSITION), (-MAX_SPEED, MAX_SPEED))
@@ -312,17 +315,17 @@ def _float32_update(
     """
     velocity = f32(velocity + change)
     velocity_32 = True  # False once velocity is one of Gymnasium's Python floats
-    if velocity > _MAX_SPEED_32:
-        velocity, velocity_32 = _MAX_SPEED_32, False
-    elif velocity < -_MAX_SPEED_32:
-        velocity, velocity_32 = -_MAX_SPEED_32, False
+    if velocity > MAX_SPEED_32:
+        velocity, velocity_32 = MAX_SPEED_32, False
+    elif velocity < -MAX_SPEED_32:
+        velocity, velocity_32 = -MAX_SPEED_32, False
     position = f32(position + velocity)
-    if position > _MAX_POSITION_32:
-        position, at_wall, at_goal = _MAX_POSITION_32, False, True
-    elif position < _MIN_POSITION_32:
-        position, at_wall, at_goal = _MIN_POSITION_32, True, False
+    if position > MAX_POSITION_32:
+        position, at_wall, at_goal = MAX_POSITION_32, False, True
+    elif position < MIN_POSITION_32:
+        position, at_wall, at_goal = MIN_POSITION_32, True, False
     else:
-        at_wall, at_goal = position == _MIN_POSITION_32, position >= _GOAL_32
+        at_wall, at_goal = position == MIN_POSITION_32, position >= GOAL_32
     if at_wall and velocity < 0:
         velocity, velocity_32 = 0.0, False
     if not at_goal:

@@ -50,6 +50,16 @@ CASES = [
         "arrays",
     ),
     ("ns_pz/MountainCarContinuous-v0", RandomNature(0.05), "processes"),
+    (
+        "ns_pz/MountainCarContinuous-v0",
+        ScriptedNature(
+            {
+                "power": IncrementUpdate(ContinuousScheduler(start=1), 0.0005),
+                "gravity": StepWiseUpdate(PeriodicScheduler(9, start=2), [0.002, 0.0035]),
+            }
+        ),
+        "arrays",
+    ),
     ("ns_pz/Acrobot-v0", None, "arrays"),
     (
         "ns_pz/Acrobot-v0",
@@ -307,3 +317,37 @@ def test_acrobot_kernel_draws_torque_noise_as_the_single_views() -> None:
     for step in range(25):
         last = quiet.step(step % 3)[0]
     assert not np.array_equal(last["state"], singles[0]["state"])  # the noise mattered
+
+
+def test_mountain_car_continuous_kernel_at_the_walls_the_goal_and_out_of_range_pushes() -> None:
+    """MountainCarContinuous's kernel at the walls, the goal and pushes beyond ±1.
+
+    A strong engine reaches the left wall and the goal; pushes beyond ±1 take Gymnasium's
+    clipped branch. The batch still equals the single views, ends and rewards included.
+    """
+    n, seed = 4, 3
+    kwargs = {"params": {"power": 0.05}, "max_episode_steps": 60}
+    vec = make_vec("ns_pz/MountainCarContinuous-v0", n, **kwargs)
+    assert vec.engine == "arrays"
+    views = [make_gym("ns_pz/MountainCarContinuous-v0", **kwargs) for _ in range(n)]
+    obs, _ = vec.reset(seed=seed)
+    singles = [view.reset(seed=seed + i)[0] for i, view in enumerate(views)]
+    rng = np.random.default_rng(1)
+    ended, goals, walls = [False] * n, 0, 0
+    for step in range(150):
+        # Ram the left wall, then pump energy (push along the velocity) up to the goal.
+        direction = np.where(obs["state"][:, 1:] >= 0.0, 1.0, -1.0) if step % 40 > 10 else -1.0
+        actions = (direction * rng.uniform(0.5, 3.0, (n, 1))).astype(np.float32)
+        obs, rewards, terminated, truncated, _ = vec.step(actions)
+        for i, view in enumerate(views):
+            if ended[i]:
+                singles[i], _ = view.reset()
+                ended[i] = False
+                continue
+            singles[i], reward, term, trunc, _ = view.step(actions[i])
+            assert (rewards[i], terminated[i], truncated[i]) == (reward, term, trunc)
+            ended[i] = term or trunc
+            goals += term
+            walls += float(singles[i]["state"][0]) == np.float32(-1.2)
+        _same(obs, singles)
+    assert goals > 0 and walls > 0
