@@ -8,11 +8,17 @@ equal bit for bit (the vector env's tests compare them with N single views). θ 
 Randomness: a kernel declares how many uniform doubles a transition and a start state consume
 (:attr:`~ns_pz.vector.BatchKernel.step_uniforms`, ``reset_uniforms``); the vector env draws them
 from each sub-environment's own generator, in the order the scalar family would (NumPy's
-``uniform(low, high)`` is ``low + (high - low) * u`` of one such double). CartPole and
-MountainCar draw only start states, the grid worlds one uniform per transition and per start.
+``uniform(low, high)`` is ``low + (high - low) * u`` of one such double). The classic-control
+kernels draw only start states (Acrobot also one uniform per transition with torque noise), the
+grid worlds one uniform per transition and per start.
 
-:func:`kernel_for` picks the kernel of a family; families without one (Acrobot,
-MountainCarContinuous, Pendulum, custom families) get :class:`~ns_pz.vector.LoopKernel`, which
+Where NumPy's array functions round differently from what the scalar step calls (Python's
+``x ** 2`` is the C library's ``pow``; a float32 square is NumPy's scalar ``powf``), the kernel
+calls the scalar function per element (:func:`_pow2`, :func:`_powf2`) rather than give up
+equality; ``sin`` and ``cos`` agree.
+
+:func:`kernel_for` picks the kernel of a family: every shipped classic-control and grid family
+has one; other families (MuJoCo, custom ones) get :class:`~ns_pz.vector.LoopKernel`, which
 calls the scalar ``step`` per sub-environment: correct, not fast.
 """
 
@@ -478,10 +484,15 @@ def _uniform(low: float, high: float, uniforms: np.ndarray) -> np.ndarray:
 
 
 def kernel_for(family: EnvFamily) -> BatchKernel:
-    """The fastest exact kernel for ``family`` (a loop over the scalar step if none is batched)."""
-    if isinstance(family, CartPoleFamily):
+    """The fastest exact kernel for ``family`` (a loop over the scalar step if none is batched).
+
+    A kernel reproduces one class's ``step``: a subclass gets it only among the grid worlds,
+    which share the slip step; a subclass of a classic-control family, which may change the
+    dynamics, gets the loop.
+    """
+    if type(family) is CartPoleFamily:
         return CartPoleKernel(family)
-    if isinstance(family, SlipGridFamily):
+    if isinstance(family, SlipGridFamily) and type(family).step is SlipGridFamily.step:
         return SlipGridKernel(family)
     if type(family) is MountainCarFamily:
         return MountainCarKernel(family)
