@@ -55,7 +55,7 @@ TWO_PI = math.pi - (-math.pi)  # Gymnasium's wrap(x, -pi, pi) steps by M - m
 HALF_PI = math.pi / 2.0
 """π/2 as Gymnasium computes it."""
 WRAP_LOOP_LIMIT = 1000 * TWO_PI
-"""Beyond this |angle|, wrap by one remainder instead of Gymnasium's repeated subtraction."""
+"""Beyond this absolute angle, wrap by one remainder instead of Gymnasium's repeated subtraction."""
 
 
 @dataclass(frozen=True, slots=True)
