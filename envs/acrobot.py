@@ -127,20 +127,23 @@ class AcrobotFamily(EnvFamily):
         torque = TORQUES[action]
         if self.torque_noise_max > 0:
             torque += rng.uniform(-self.torque_noise_max, self.torque_noise_max)
-        derivatives = _derivatives(theta, torque)
-        dt = theta.dt
-        half = dt / 2.0
-        t1, t2, d1, d2 = state
-        k1 = derivatives(t1, t2, d1, d2)
-        k2 = derivatives(t1 + half * k1[0], t2 + half * k1[1], d1 + half * k1[2], d2 + half * k1[3])
-        k3 = derivatives(t1 + half * k2[0], t2 + half * k2[1], d1 + half * k2[2], d2 + half * k2[3])
-        k4 = derivatives(t1 + dt * k3[0], t2 + dt * k3[1], d1 + dt * k3[2], d2 + dt * k3[3])
-        sixth = dt / 6.0
-        # y0 + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4), element by element, in NumPy's order.
-        t1 = wrap_angle(t1 + sixth * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]))
-        t2 = wrap_angle(t2 + sixth * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]))
-        d1 = min(max(d1 + sixth * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]), -MAX_VEL_1), MAX_VEL_1)
-        d2 = min(max(d2 + sixth * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3]), -MAX_VEL_2), MAX_VEL_2)
+        derivatives = equations_of_motion(
+            theta.link_length_1,
+            theta.link_mass_1,
+            theta.link_mass_2,
+            theta.link_com_pos_1,
+            theta.link_com_pos_2,
+            theta.link_moi,
+            torque,
+            math.cos,
+            math.sin,
+            _square,
+        )
+        t1, t2, d1, d2 = rk4_step(derivatives, state, theta.dt)
+        t1 = wrap_angle(t1)
+        t2 = wrap_angle(t2)
+        d1 = min(max(d1, -MAX_VEL_1), MAX_VEL_1)
+        d2 = min(max(d2, -MAX_VEL_2), MAX_VEL_2)
         terminal = -math.cos(t1) - math.cos(t2 + t1) > 1.0
         return (t1, t2, d1, d2), (0.0 if terminal else -1.0), terminal
 
@@ -181,54 +184,87 @@ class AcrobotFamily(EnvFamily):
         return f"AcrobotFamily(torque_noise_max={self.torque_noise_max!r})"
 
 
-Derivatives = Callable[[float, float, float, float], tuple[float, float, float, float]]
+Derivatives = Callable[[Any, Any, Any, Any], tuple[Any, Any, Any, Any]]
+"""``f(θ1, θ2, dθ1, dθ2) -> (dθ1, dθ2, ddθ1, ddθ2)``, of floats or of arrays of rows."""
 
 
-def _derivatives(theta: AcrobotParams, torque: float) -> Derivatives:
+def _square(x: float) -> float:
+    return x**2
+
+
+def equations_of_motion(
+    l1: Any,
+    m1: Any,
+    m2: Any,
+    lc1: Any,
+    lc2: Any,
+    moi: Any,
+    torque: Any,
+    cos: Callable[[Any], Any],
+    sin: Callable[[Any], Any],
+    square: Callable[[Any], Any],
+) -> Derivatives:
     """Gymnasium's "book" equations of motion under one θ and torque.
 
-    Returns ``f(θ1, θ2, dθ1, dθ2) -> (dθ1, dθ2, ddθ1, ddθ2)``. The θ-only products are computed
-    once per step, grouped exactly as Gymnasium's left-to-right evaluation groups them, so every
-    value matches to the bit.
+    The arguments are floats (the scalar step) or arrays of rows (the batched kernel of
+    :mod:`ns_pz.envs.batched`), with the ``cos``, ``sin`` and squaring that give Gymnasium's
+    bits for them (``x ** 2`` is the C library's ``pow``, not ``x * x``). The θ-only products
+    are computed once per step, grouped exactly as Gymnasium's left-to-right evaluation groups
+    them, so every value matches to the bit.
     """
-    m1, m2 = theta.link_mass_1, theta.link_mass_2
-    l1, lc1, lc2 = theta.link_length_1, theta.link_com_pos_1, theta.link_com_pos_2
-    i1 = i2 = theta.link_moi
-    d1_a = m1 * lc1**2
-    d1_b = l1**2 + lc2**2
+    i1 = i2 = moi
+    d1_a = m1 * square(lc1)
+    d1_b = square(l1) + square(lc2)
     d1_c = 2 * l1 * lc2
-    d2_a = lc2**2
+    d2_a = square(lc2)
     d2_b = l1 * lc2
     phi2_a = m2 * lc2 * GRAVITY
     phi1_a = -m2 * l1 * lc2
     phi1_b = 2 * m2 * l1 * lc2
     phi1_c = (m1 * lc1 + m2 * l1) * GRAVITY
     coriolis = m2 * l1 * lc2
-    den_a = m2 * lc2**2 + i2
-    cos = math.cos
-    sin = math.sin
+    den_a = m2 * square(lc2) + i2
 
-    def derivatives(
-        theta1: float, theta2: float, dtheta1: float, dtheta2: float
-    ) -> tuple[float, float, float, float]:
+    def derivatives(theta1: Any, theta2: Any, dtheta1: Any, dtheta2: Any) -> tuple[Any, ...]:
         cos2 = cos(theta2)
         sin2 = sin(theta2)
         d1 = d1_a + m2 * (d1_b + d1_c * cos2) + i1 + i2
         d2 = m2 * (d2_a + d2_b * cos2) + i2
         phi2 = phi2_a * cos(theta1 + theta2 - HALF_PI)
         phi1 = (
-            phi1_a * dtheta2**2 * sin2
+            phi1_a * square(dtheta2) * sin2
             - phi1_b * dtheta2 * dtheta1 * sin2
             + phi1_c * cos(theta1 - HALF_PI)
             + phi2
         )
-        ddtheta2 = (torque + d2 / d1 * phi1 - coriolis * dtheta1**2 * sin2 - phi2) / (
-            den_a - d2**2 / d1
+        ddtheta2 = (torque + d2 / d1 * phi1 - coriolis * square(dtheta1) * sin2 - phi2) / (
+            den_a - square(d2) / d1
         )
         ddtheta1 = -(d2 * ddtheta2 + phi1) / d1
         return dtheta1, dtheta2, ddtheta1, ddtheta2
 
-    return derivatives
+    return derivatives  # type: ignore[return-value]
+
+
+def rk4_step(derivatives: Derivatives, state: Any, dt: Any) -> tuple[Any, Any, Any, Any]:
+    """Gymnasium's RK4 step of length ``dt`` from ``state`` (before wrapping and clipping).
+
+    ``y0 + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)``, element by element, in NumPy's order; floats
+    or arrays of rows.
+    """
+    t1, t2, d1, d2 = state
+    half = dt / 2.0
+    k1 = derivatives(t1, t2, d1, d2)
+    k2 = derivatives(t1 + half * k1[0], t2 + half * k1[1], d1 + half * k1[2], d2 + half * k1[3])
+    k3 = derivatives(t1 + half * k2[0], t2 + half * k2[1], d1 + half * k2[2], d2 + half * k2[3])
+    k4 = derivatives(t1 + dt * k3[0], t2 + dt * k3[1], d1 + dt * k3[2], d2 + dt * k3[3])
+    sixth = dt / 6.0
+    return (
+        t1 + sixth * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0]),
+        t2 + sixth * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1]),
+        d1 + sixth * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2]),
+        d2 + sixth * (k1[3] + 2 * k2[3] + 2 * k3[3] + k4[3]),
+    )
 
 
 def wrap_angle(angle: float) -> float:

@@ -28,14 +28,14 @@ import math
 from typing import Any
 
 import numpy as np
-from ns_pz.envs.acrobot import GRAVITY as ACROBOT_GRAVITY
 from ns_pz.envs.acrobot import (
-    HALF_PI,
     MAX_VEL_1,
     MAX_VEL_2,
     PI,
     WRAP_LOOP_LIMIT,
     AcrobotFamily,
+    equations_of_motion,
+    rk4_step,
     wrap_angle,
 )
 from ns_pz.envs.acrobot import TORQUES as ACROBOT_TORQUES
@@ -346,9 +346,9 @@ class PendulumKernel(ArrayKernel):
 class AcrobotKernel(ArrayKernel):
     """Acrobot: states ``(N, 4)`` (θ1, θ2, dθ1, dθ2); θ columns in :class:`AcrobotParams` order.
 
-    Gymnasium's RK4 step with the "book" equations, every operation in the scalar step's order
-    (:func:`ns_pz.envs.acrobot._derivatives`); its squares call the C library's ``pow`` per
-    element (:func:`_pow2`), as Python's ``**`` does. With torque noise, one uniform per
+    The scalar step's own equations and RK4 step (:func:`ns_pz.envs.acrobot.equations_of_motion`,
+    :func:`~ns_pz.envs.acrobot.rk4_step`) on arrays of rows; the squares call the C library's
+    ``pow`` per element (:func:`_pow2`), as Python's ``**`` does. With torque noise, one uniform per
     transition, drawn as the scalar step draws it.
     """
 
@@ -372,58 +372,13 @@ class AcrobotKernel(ArrayKernel):
         if self._noise > 0:
             torque = torque + _uniform(-self._noise, self._noise, uniforms)
         l1, _, m1, m2, lc1, lc2, moi, dt = theta.T
-        lc2_sq = _pow2(lc2)
-        d1_a = m1 * _pow2(lc1)
-        d1_b = _pow2(l1) + lc2_sq
-        d1_c = 2 * l1 * lc2
-        d2_b = l1 * lc2
-        phi2_a = m2 * lc2 * ACROBOT_GRAVITY
-        phi1_a = -m2 * l1 * lc2
-        phi1_b = 2 * m2 * l1 * lc2
-        phi1_c = (m1 * lc1 + m2 * l1) * ACROBOT_GRAVITY
-        coriolis = m2 * l1 * lc2
-        den_a = m2 * lc2_sq + moi
-
-        def derivatives(
-            t1: np.ndarray, t2: np.ndarray, v1: np.ndarray, v2: np.ndarray
-        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-            cos2 = np.cos(t2)
-            sin2 = np.sin(t2)
-            d1 = d1_a + m2 * (d1_b + d1_c * cos2) + moi + moi
-            d2 = m2 * (lc2_sq + d2_b * cos2) + moi
-            phi2 = phi2_a * np.cos(t1 + t2 - HALF_PI)
-            phi1 = (
-                phi1_a * _pow2(v2) * sin2
-                - phi1_b * v2 * v1 * sin2
-                + phi1_c * np.cos(t1 - HALF_PI)
-                + phi2
-            )
-            dd2 = (torque + d2 / d1 * phi1 - coriolis * _pow2(v1) * sin2 - phi2) / (
-                den_a - _pow2(d2) / d1
-            )
-            dd1 = -(d2 * dd2 + phi1) / d1
-            return v1, v2, dd1, dd2
-
-        half = dt / 2.0
-        t1, t2, v1, v2 = states.T
-        k1 = derivatives(t1, t2, v1, v2)
-        k2 = derivatives(t1 + half * k1[0], t2 + half * k1[1], v1 + half * k1[2], v2 + half * k1[3])
-        k3 = derivatives(t1 + half * k2[0], t2 + half * k2[1], v1 + half * k2[2], v2 + half * k2[3])
-        k4 = derivatives(t1 + dt * k3[0], t2 + dt * k3[1], v1 + dt * k3[2], v2 + dt * k3[3])
-        sixth = dt / 6.0
+        derivatives = equations_of_motion(l1, m1, m2, lc1, lc2, moi, torque, np.cos, np.sin, _pow2)
+        t1, t2, v1, v2 = rk4_step(derivatives, states.T, dt)
         out = np.empty_like(states)
-        for j, (y, low, high) in enumerate(
-            (
-                (t1, None, None),
-                (t2, None, None),
-                (v1, -MAX_VEL_1, MAX_VEL_1),
-                (v2, -MAX_VEL_2, MAX_VEL_2),
-            )
-        ):
-            value = y + sixth * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j])
-            out[:, j] = (
-                _wrap_angles(value) if low is None else np.minimum(np.maximum(value, low), high)
-            )
+        out[:, 0] = _wrap_angles(t1)
+        out[:, 1] = _wrap_angles(t2)
+        out[:, 2] = np.minimum(np.maximum(v1, -MAX_VEL_1), MAX_VEL_1)
+        out[:, 3] = np.minimum(np.maximum(v2, -MAX_VEL_2), MAX_VEL_2)
         t1, t2 = out[:, 0], out[:, 1]
         terminal = -np.cos(t1) - np.cos(t2 + t1) > 1.0
         return out, np.where(terminal, 0.0, -1.0), terminal
@@ -436,7 +391,7 @@ class AcrobotKernel(ArrayKernel):
 
 
 def _wrap_angles(angles: np.ndarray) -> np.ndarray:
-    """:func:`ns_pz.envs.acrobot._wrap` of every element (repeated steps of 2π, as Gymnasium)."""
+    """:func:`ns_pz.envs.acrobot.wrap_angle` of every element (repeated steps of 2π)."""
     far = np.flatnonzero(~(np.abs(angles) <= WRAP_LOOP_LIMIT))
     for i in far:
         angles[i] = wrap_angle(float(angles[i]))
