@@ -288,12 +288,19 @@ class NSProcess:
             ResetNeeded / ValueError: No episode is running, or it is not nature's turn.
         """
         self.check_turn(NATURE, "the nature policy's action")
-        pending = self._pending
-        if pending is not None and pending[0] == self.t:
-            return cast(Proposal, pending[1])
+        answer = self._answered()
+        if answer is not _UNASKED:
+            return cast(Proposal, answer)
         proposal = self.nature.act(self)
         self._pending = (self.t, proposal)
         return proposal
+
+    def _answered(self) -> Any:
+        """What the configured policy already answered in this turn, or :data:`_UNASKED`."""
+        pending = self._pending
+        if pending is not None and pending[0] == self.t:
+            return pending[1]
+        return _UNASKED
 
     def nature_turn(self, proposal: Mapping[str, Any] | None) -> None:
         """Grant nature's proposal for step ``t``, projected onto the allowed set.
@@ -330,9 +337,9 @@ class NSProcess:
             ResetNeeded / ValueError: No episode is running, or it is not the monitor's turn.
         """
         self.check_turn(MONITOR, "the monitor policy's action")
-        pending = self._pending
-        if pending is not None and pending[0] == self.t:
-            return cast(tuple, pending[1])
+        answer = self._answered()
+        if answer is not _UNASKED:
+            return cast(tuple, answer)
         notice = self._monitor_says()
         self._pending = (self.t, notice)
         return notice
@@ -475,20 +482,14 @@ class NSProcess:
         total, count = 0.0, 0
         while not self.done and self.turn != seat:
             turn = self.turn
-            # A policy's answer already asked for this turn (``_pending``) is the one played;
-            # otherwise the policy is asked here, once.
+            # An answer already given this turn is the one played; otherwise the policy is asked
+            # here, once (without the turn checks and caching of scripted_proposal/notification).
             if turn == NATURE:
-                pending = self._pending
-                if pending is None or pending[0] != self.t:
-                    self.nature_turn(self.nature.act(self))
-                else:
-                    self.nature_turn(pending[1])
+                answer = self._answered()
+                self.nature_turn(self.nature.act(self) if answer is _UNASKED else answer)
             elif turn == MONITOR:  # monitor_turn without re-checking the masked notification
-                pending = self._pending
-                if pending is None or pending[0] != self.t:
-                    self.notice = self._monitor_says()
-                else:
-                    self.notice = pending[1]
+                answer = self._answered()
+                self.notice = self._monitor_says() if answer is _UNASKED else answer
                 self._pending = None
                 self.turn = DECISION
             elif decide is None:
@@ -502,8 +503,7 @@ class NSProcess:
     def agent_observation(self) -> dict[str, Any]:
         """The decision agent's observation now: state, the notification of this step, clock."""
         flags, sizes = self.notice
-        no_change = self.no_change
-        return self.build.agent(self.state, self.t, flags, sizes, no_change)
+        return self.build.agent(self.state, self.t, flags, sizes, self.no_change)
 
     def nature_interface(
         self,
@@ -665,6 +665,8 @@ class NSProcess:
 
 
 _STATIC = StaticNature()
+_UNASKED = object()
+"""No answer of a configured policy is pending in this turn (``None`` is a valid proposal)."""
 _UNCONSTRAINED = NatureConstraints()
 
 
