@@ -406,18 +406,6 @@ def measure_planning(name: str, repeats: int) -> None:
         print(f"  {name} NS-Gym get_planning_env(): {ng_copy * 1e6:.1f} us")
 
 
-VECTOR_ENVS = (
-    "CartPole",
-    "FrozenLake",
-    "CliffWalking",
-    "Bridge",
-    "MountainCar",
-    "MountainCarContinuous",
-    "Pendulum",
-    "Acrobot",
-)
-
-
 def time_vector(env: gym.vector.VectorEnv, actions: list[np.ndarray]) -> float:
     """Seconds per env-step of a vector env over batches of actions (autoreset included)."""
     env.reset(seed=0)
@@ -530,9 +518,8 @@ def main() -> None:
     steps, rounds = (300, 2) if args.smoke else (args.steps, args.rounds)
     num_envs = 8 if args.smoke else args.num_envs
     if args.only in (None, "vector"):
-        for name in VECTOR_ENVS:
-            if name in args.envs:
-                measure_vector(name, num_envs, 20 if args.smoke else args.vector_steps, rounds)
+        for name in args.envs:  # every family has a batched kernel
+            measure_vector(name, num_envs, 20 if args.smoke else args.vector_steps, rounds)
     if args.only in (None, "sb3") and args.sb3_steps and not args.smoke:
         measure_sb3(8, args.sb3_steps)
     if args.only not in (None, "single"):
