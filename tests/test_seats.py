@@ -246,16 +246,21 @@ def test_regret_pays_the_oracle_value_minus_the_agent_return():
         assert total == pytest.approx(oracle - agent_return)
 
 
-def test_replay_reference_of_the_agent_itself_has_no_regret_on_a_deterministic_env():
-    """Replaying the agent's own policy on deterministic CartPole gives exactly its return."""
-    env = ns_pz.single_agent(
+def _self_replay_regret_seat(**env_kwargs):
+    """Nature's seat on CartPole, paid the balancing agent's regret against its own replay."""
+    return ns_pz.single_agent(
         "ns_pz/CartPole-v0",
         "nature",
         {DECISION: balance},
         nature_reward="regret",
         regret_reference=ReplayReference(balance),
-        max_episode_steps=100,
+        **env_kwargs,
     )
+
+
+def test_replay_reference_of_the_agent_itself_has_no_regret_on_a_deterministic_env():
+    """Replaying the agent's own policy on deterministic CartPole gives exactly its return."""
+    env = _self_replay_regret_seat(max_episode_steps=100)
     obs, _ = env.reset(seed=0)
     total, done = 0.0, False
     while not done:
@@ -452,15 +457,8 @@ def test_replay_regret_with_a_detector_and_a_per_episode_theta0():
     """
     from ns_pz.monitor import PredictionErrorMonitor
 
-    env = ns_pz.single_agent(
-        "ns_pz/CartPole-v0",
-        "nature",
-        {DECISION: balance},
-        nature_reward="regret",
-        regret_reference=ReplayReference(balance),
-        monitor=PredictionErrorMonitor(),
-        notification="detailed",
-        max_episode_steps=30,
+    env = _self_replay_regret_seat(
+        monitor=PredictionErrorMonitor(), notification="detailed", max_episode_steps=30
     )
     env.reset(seed=0, options={"params": {"length": 0.02}})
     total, done = 0.0, False
