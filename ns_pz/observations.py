@@ -83,12 +83,13 @@ class ObservationBuilder:
         self._zero_flags = np.zeros(count, np.int8)
         self._zero_sizes = np.zeros(count, np.float32)
         self._zero_clock = np.zeros(1, np.float32)
+        self._flag_arrays: dict[tuple, np.ndarray] = {}
 
     def agent(self, state: Any, t: int, flags: tuple, sizes: tuple, no_change: tuple) -> dict:
         """The decision agent's observation: one flag and one size per parameter.
 
         ``no_change`` is the process's all-zero tuple: flags or sizes that are it become a copy
-        of a zero template (cheaper than converting a tuple).
+        of a zero template (cheaper than converting a tuple); so do flags seen before.
         """
         clock = self._zero_clock.copy()
         clock[0] = t
@@ -96,12 +97,21 @@ class ObservationBuilder:
             "state": self._observe(state),
             "env_change": self._zero_flags.copy()
             if flags is no_change
-            else np.array(flags, np.int8),
+            else self._flags_array(flags),
             "delta_change": self._zero_sizes.copy()
             if sizes is no_change
             else np.array(sizes, np.float32),
             "relative_time": clock,
         }
+
+    def _flags_array(self, flags: tuple) -> np.ndarray:
+        """A new int8 array of ``flags``, copied from a template kept per flag pattern."""
+        template = self._flag_arrays.get(flags)
+        if template is None:
+            template = np.array(flags, np.int8)
+            if len(self._flag_arrays) < _FLAG_PATTERNS_KEPT:
+                self._flag_arrays[flags] = template
+        return template.copy()
 
     def monitor(self, process: NSProcess) -> dict:
         """The monitor's observation of the process's last transition (a null action before it)."""
@@ -116,6 +126,8 @@ class ObservationBuilder:
         }
 
 
+_FLAG_PATTERNS_KEPT = 64
+"""Flag patterns whose arrays a builder keeps (changes usually repeat a few patterns)."""
 _CLOCK = spaces.Box(0.0, np.inf, (1,), np.float32)
 
 

@@ -265,7 +265,7 @@ class Params:
             if all(s.kind == SCALAR for s in specs):
                 get = operator.attrgetter(*names)
                 scalars = get if len(names) > 1 else (lambda theta, get=get: (get(theta),))
-            layout = _Layout(specs, names, by_name, slices, scalars)
+            layout = _Layout(specs, names, by_name, slices, scalars, _evolver(cls, names))
             Params._layouts[cls] = layout
         return layout
 
@@ -331,11 +331,7 @@ class Params:
         For the game's hot path only, after it has projected every value onto its spec; callers
         outside ns_pz should use :meth:`replace`.
         """
-        cls = type(self)
-        new = object.__new__(cls)
-        for name in Params.layout_of(self).names:
-            object.__setattr__(new, name, changes[name] if name in changes else getattr(self, name))
-        return new
+        return Params.layout_of(self).evolve(self, changes)  # type: ignore[no-any-return]
 
     def as_dict(self) -> dict[str, Value]:
         """Parameter values by name, in field order."""
@@ -393,6 +389,36 @@ class _Layout:
     slices: tuple[tuple[ParamSpec, int, int], ...]
     scalars: Callable[[Any], tuple[float, ...]] | None
     """Every value as a tuple, when all parameters are scalars (a fast path of ``flat``)."""
+    evolve: Callable[[Any, Mapping[str, Any]], Any]
+    """``evolve(theta, changes)``: the body of :meth:`Params.evolve_trusted` for this class."""
+
+
+def _evolver(cls: type, names: tuple[str, ...]) -> Callable[[Any, Mapping[str, Any]], Any]:
+    """A function that copies a θ of ``cls`` with some fields replaced, without validation.
+
+    Written out field by field (as ``dataclasses`` writes ``__init__``) and storing through the
+    slots' own descriptors, it takes half the time of a loop of ``object.__setattr__`` on
+    CartPole's six fields, and it runs for every change nature makes. A class without slots
+    gets the loop.
+    """
+    slots = [getattr(cls, name, None) for name in names]
+    if not all(type(slot).__name__ == "member_descriptor" for slot in slots):
+
+        def evolve_by_setattr(theta: Any, changes: Mapping[str, Any]) -> Any:
+            new = object.__new__(cls)
+            for name in names:
+                object.__setattr__(new, name, changes.get(name, getattr(theta, name)))
+            return new
+
+        return evolve_by_setattr
+    namespace: dict[str, Any] = {"new_object": object.__new__, "cls": cls}
+    lines = ["def evolve(theta, changes):", "    new = new_object(cls)", "    get = changes.get"]
+    for i, (name, slot) in enumerate(zip(names, slots, strict=True)):
+        namespace[f"set_{i}"] = slot.__set__  # type: ignore[union-attr]
+        lines.append(f"    set_{i}(new, get({name!r}, theta.{name}))")
+    lines.append("    return new")
+    exec("\n".join(lines), namespace)  # noqa: S102 - our own field names, checked identifiers
+    return namespace["evolve"]  # type: ignore[no-any-return]
 
 
 def _spec_of(cls: type, f: dataclasses.Field[Any]) -> ParamSpec:

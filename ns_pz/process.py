@@ -349,16 +349,19 @@ class NSProcess:
         if level is NotificationLevel.NONE:
             return self.no_change, self.no_change
         monitor = self.monitor
+        if type(monitor) is OracleMonitor:  # its notification is the truth: no checks needed
+            if self.last_change is None:
+                return self.no_change, self.no_change
+            truth = self.last_sizes()
+            flags = tuple([1 if size > 0.0 else 0 for size in truth])
+            if 1 not in flags:
+                return self.no_change, self.no_change
+            return flags, truth if level is NotificationLevel.DETAILED else self.no_change
         truth = None
         if monitor.reads_ground_truth:
             if self.last_change is None and monitor.quiet_without_change:
                 return self.no_change, self.no_change
             truth = self.last_sizes()
-            if type(monitor) is OracleMonitor:  # its notification is the truth: no checks needed
-                flags = tuple([1 if size > 0.0 else 0 for size in truth])
-                if 1 not in flags:
-                    return self.no_change, self.no_change
-                return flags, truth if level.shows_sizes else self.no_change
         observation = self.build.monitor(self) if monitor.needs_observation else None
         flags, sizes = monitor.notify(
             observation,

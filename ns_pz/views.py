@@ -106,16 +106,14 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
 
     def step(self, action: Any) -> tuple[dict[str, Any], SupportsFloat, bool, bool, dict[str, Any]]:
         """The transition under θ_t, then nature's and the monitor's turns of the next step."""
-        process = self._process
-        if process.done:
-            process.check_running("step()")
-        reward, terminated, truncated = process.transition(process.family.check_action(action))
-        if not process.done:
-            process.play_until(DECISION)
-        obs = process.agent_observation()
-        if self.render_mode == "human":
-            self.render()
-        return obs, float(reward), bool(terminated), bool(truncated), self._info()
+        reward, terminated, truncated = self._advance(action)
+        return (
+            self._process.agent_observation(),
+            float(reward),
+            bool(terminated),
+            bool(truncated),
+            self._info(),
+        )
 
     def render(self) -> Any:
         """The current state in :attr:`render_mode`: a frame, text, or ``None`` (human, none).
@@ -219,6 +217,22 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         return self._process
 
     # -- internals --------------------------------------------------------------------------
+    def _advance(self, action: Any) -> tuple[Any, Any, bool]:
+        """:meth:`step` without the observation (adapters that build their own call this).
+
+        Returns:
+            ``(reward, terminated, truncated)`` of the transition.
+        """
+        process = self._process
+        if process.done:
+            process.check_running("step()")
+        outcome = process.transition(process.family.check_action(action))
+        if not process.done:
+            process.play_until(DECISION)
+        if self.render_mode == "human":
+            self.render()
+        return outcome
+
     def _info(self) -> dict[str, Any]:
         if self._ground_truth_info:
             return {"theta": self._process.last_theta.as_dict()}

@@ -11,7 +11,7 @@ from ns_pz.envs.cartpole import CartPoleParams
 from ns_pz.envs.frozen_lake import FrozenLakeParams
 
 from ns_pz import ParamOutOfRange, UnknownParam
-from ns_pz.params import project_to_simplex
+from ns_pz.params import Params, project_to_simplex, scalar, simplex
 
 
 def test_defaults_are_gymnasium_constants():
@@ -175,3 +175,33 @@ def test_theta_unpickled_in_a_fresh_process_works_on_the_change_path(tmp_path):
         [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, check=True
     )
     assert out.stdout.strip() == "0.5"
+
+
+@dataclasses.dataclass(frozen=True)
+class _UnslottedParams(Params):
+    """A user's θ declared without ``slots=True``: evolve_trusted falls back to setattr."""
+
+    speed: float = scalar(1.0, low=0.0, high=10.0)
+    mix: tuple[float, ...] = simplex((0.5, 0.5), outcomes=("a", "b"))
+
+
+@pytest.mark.parametrize(
+    ("theta", "changes"),
+    [
+        (CartPoleParams(), {"masspole": 0.2}),
+        (CartPoleParams(), {"gravity": 9.0, "tau": 0.01}),
+        (FrozenLakeParams(), {"slip": (0.5, 0.25, 0.25)}),
+        (_UnslottedParams(), {"mix": (0.25, 0.75)}),
+        (_UnslottedParams(), {}),
+    ],
+)
+def test_evolve_trusted_changes_only_the_given_fields_and_leaves_theta_alone(
+    theta: Params, changes: dict
+) -> None:
+    before = theta.as_dict()
+    new = theta.evolve_trusted(changes)
+    assert type(new) is type(theta)
+    assert new.as_dict() == {**before, **changes}
+    assert new == theta.replace(**changes)
+    assert theta.as_dict() == before
+    assert new is not theta

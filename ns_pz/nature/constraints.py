@@ -53,6 +53,12 @@ class NatureConstraints:
     normalized_budget: float | None = None
     _per_param: Mapping[str, float] = field(default_factory=dict, init=False, repr=False)
     _budget_per_param: Mapping[str, float] = field(default_factory=dict, init=False, repr=False)
+    total_budget: float | None = field(default=None, init=False, repr=False, compare=False)
+    """The budget shared by all parameters (a single-number ``budget``), or ``None``."""
+    has_budget: bool = field(default=False, init=False, repr=False, compare=False)
+    """Whether any episode budget applies."""
+    unconstrained: bool = field(default=True, init=False, repr=False, compare=False)
+    """Whether nothing limits nature beyond the bounds."""
 
     def __post_init__(self) -> None:
         if isinstance(self.budget, Mapping):
@@ -67,6 +73,12 @@ class NatureConstraints:
             object.__setattr__(self, "_per_param", per)
         elif self.lipschitz is not None:
             _check_limit("lipschitz", self.lipschitz)
+        # Read at every change nature makes: stored once rather than derived each time.
+        total = None if isinstance(self.budget, Mapping) else self.budget
+        has_budget = self.budget is not None or self.normalized_budget is not None
+        object.__setattr__(self, "total_budget", total)
+        object.__setattr__(self, "has_budget", has_budget)
+        object.__setattr__(self, "unconstrained", self.lipschitz is None and not has_budget)
 
     def check_names(self, params_cls: type[Params]) -> None:
         """Check the constraints fit a parameter set.
@@ -94,21 +106,6 @@ class NatureConstraints:
     def budget_of(self, name: str) -> float | None:
         """The episode budget of one parameter alone (a per-parameter ``budget``), or ``None``."""
         return self._budget_per_param.get(name)
-
-    @property
-    def total_budget(self) -> float | None:
-        """The budget shared by all parameters (a single-number ``budget``), or ``None``."""
-        return None if self.budget is None or isinstance(self.budget, Mapping) else self.budget
-
-    @property
-    def has_budget(self) -> bool:
-        """Whether any episode budget applies."""
-        return self.budget is not None or self.normalized_budget is not None
-
-    @property
-    def unconstrained(self) -> bool:
-        """Whether nothing limits nature beyond the bounds."""
-        return self.lipschitz is None and not self.has_budget
 
 
 def budget_fractions_left(
@@ -159,7 +156,8 @@ def admit(
         ParamOutOfRange: A proposed value is NaN or has the wrong shape.
     """
     owner = type(theta).__name__
-    by_name = Params.layout_of(theta).by_name
+    layout = Params.layout_of(theta)
+    by_name = layout.by_name
     granted: dict[str, Value] = {}
     sizes: dict[str, float] = {}
     if constraints.unconstrained:
@@ -171,7 +169,7 @@ def admit(
                 granted[name] = new
                 if sizes_wanted:
                     sizes[name] = spec.distance(old, new)
-        new_theta = theta.evolve_trusted(granted) if granted else theta
+        new_theta = layout.evolve(theta, granted) if granted else theta
         return new_theta, (sizes if sizes_wanted else None)
     for name, raw in proposal.items():
         spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
@@ -199,7 +197,7 @@ def admit(
         granted, sizes = _within_budget(theta, granted, sizes, factor)
         if not granted:
             return theta, sizes
-    return theta.evolve_trusted(granted), sizes
+    return layout.evolve(theta, granted), sizes
 
 
 def _shared_budget_factor(

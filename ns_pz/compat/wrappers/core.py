@@ -39,7 +39,6 @@ from ns_pz.errors import ResetNeeded
 from ns_pz.family import EnvFamily
 from ns_pz.nature import ScriptedNature
 from ns_pz.nature import updates as native_updates
-from ns_pz.nature.distribution_updates import total_variation
 from ns_pz.params import SIMPLEX, Params
 from ns_pz.process import GroundTruth, NSProcess
 
@@ -143,9 +142,11 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         self.ground_truth_info = bool(ground_truth_info)
         self.is_sim_env = False
         self.frozen = False
+        # (NS-Gym name, θ field, the field's change size if a vector: total variation, else None)
         self._fields = tuple(
-            (name, binding.names[name], family.params_cls.spec(binding.names[name]).kind == SIMPLEX)
+            (name, spec.name, spec.distance if spec.kind == SIMPLEX else None)
             for name in tunable_params
+            for spec in (family.params_cls.spec(binding.names[name]),)
         )
         self._zeros_int = dict.fromkeys(tunable_params, 0)
         self._zeros_float = dict.fromkeys(tunable_params, 0.0)
@@ -222,33 +223,36 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         self, action: Any
     ) -> tuple[dict[str, Any], SupportsFloat | Reward, bool, bool, dict[str, Any]]:
         """Parameters change for this step (if scheduled), then the env steps under them."""
-        core_obs, reward, terminated, truncated, _ = self.core.step(action)
-        process = self.process
+        core = self.core
+        reward, terminated, truncated = core._advance(action)
+        process = core.process
         truth_flags, truth_deltas = self._zeros_int, self._zeros_float
         change = process.last_change
         if change is not None:
             before, after = change
             truth_flags, truth_deltas = dict(truth_flags), dict(truth_deltas)
-            for name, native, is_vector in self._fields:
+            for name, native, vector_distance in self._fields:
                 old, new = getattr(before, native), getattr(after, native)
                 if old != new:
                     truth_flags[name] = 1
-                    truth_deltas[name] = total_variation(old, new) if is_vector else new - old
+                    truth_deltas[name] = (
+                        new - old if vector_distance is None else vector_distance(old, new)
+                    )
         shown_flags, shown_deltas = self._zeros_int, self._zeros_float
         if self.change_notification and not self.frozen:
             shown_flags = truth_flags
             if self.delta_change_notification:
                 shown_deltas = truth_deltas
         obs = {
-            "state": core_obs["state"],
+            "state": process.family.observe(process.state),
             "env_change": dict(shown_flags),
             "delta_change": dict(shown_deltas),
             "relative_time": process.t,
         }
         info: dict[str, Any] = {}
-        if self.ground_truth_info:
-            info[GROUND_TRUTH_CHANGE] = dict(truth_flags)
-            info[GROUND_TRUTH_DELTA] = dict(truth_deltas)
+        if self.ground_truth_info:  # the truth's own dicts when fresh, never the obs' ones
+            info[GROUND_TRUTH_CHANGE] = truth_flags if change else dict(truth_flags)
+            info[GROUND_TRUTH_DELTA] = truth_deltas if change else dict(truth_deltas)
         value: SupportsFloat | Reward = float(reward)
         if not self.scalar_reward:
             value = Reward(float(reward), obs["env_change"], obs["delta_change"], process.t)

@@ -85,10 +85,10 @@ class _GridWrapper(NSWrapper):
     @property
     def transition_prob(self) -> list[float] | dict[str, list[float]]:
         """The slip vector in force (split Bridge: ``{"P_left": ..., "P_right": ...}``)."""
-        params = self.get_params()
-        if len(params) == 1:
-            return next(iter(params.values()))  # type: ignore[no-any-return]
-        return params
+        names = self.binding.names
+        if len(names) == 1:  # read at every step (info): straight from θ
+            return list(getattr(self.process.last_theta, next(iter(names.values()))))
+        return self.get_params()
 
     @property
     def P(self) -> Table:  # noqa: N802 - NS-Gym's name
