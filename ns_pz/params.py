@@ -405,7 +405,7 @@ def _evolver(cls: type, names: tuple[str, ...]) -> Callable[[Any, Mapping[str, A
     if not all(type(slot).__name__ == "member_descriptor" for slot in slots):
 
         def evolve_by_setattr(theta: Any, changes: Mapping[str, Any]) -> Any:
-            new = object.__new__(cls)
+            new: Any = object.__new__(cls)
             for name in names:
                 object.__setattr__(new, name, changes.get(name, getattr(theta, name)))
             return new

@@ -357,15 +357,15 @@ class NSProcess:
             if 1 not in flags:
                 return self.no_change, self.no_change
             return flags, truth if level is NotificationLevel.DETAILED else self.no_change
-        truth = None
+        told: tuple[float, ...] | None = None  # the true sizes, for monitors that read them
         if monitor.reads_ground_truth:
             if self.last_change is None and monitor.quiet_without_change:
                 return self.no_change, self.no_change
-            truth = self.last_sizes()
+            told = self.last_sizes()
         observation = self.build.monitor(self) if monitor.needs_observation else None
         flags, sizes = monitor.notify(
             observation,
-            truth,
+            told,
             self.monitor_memory,
             self.monitor_rng,  # type: ignore[arg-type]
         )

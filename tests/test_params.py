@@ -198,6 +198,7 @@ class _UnslottedParams(Params):
 def test_evolve_trusted_changes_only_the_given_fields_and_leaves_theta_alone(
     theta: Params, changes: dict
 ) -> None:
+    """The generated (slots) and the fallback (no slots) copy agree with ``replace``."""
     before = theta.as_dict()
     new = theta.evolve_trusted(changes)
     assert type(new) is type(theta)
