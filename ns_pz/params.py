@@ -144,7 +144,7 @@ class ParamSpec:
             if self.kind == SCALAR and self.contains(value) and math.isfinite(value):
                 return value
         elif type(value) is tuple and len(value) == self.size and self.kind == SIMPLEX:
-            if min(value) >= 0.0 and max(value) <= 1.0 and abs(sum(value) - 1.0) <= SIMPLEX_ATOL:
+            if _on_simplex(value):
                 return value
         where = f"{owner}.{self.name}={value!r}"
         if self.kind == SCALAR:
@@ -176,6 +176,20 @@ class ParamSpec:
         if self.kind == SIMPLEX:
             return [0.0] * self.size, [1.0] * self.size
         return [self.low], [self.high]
+
+
+def _on_simplex(vector: tuple[float, ...]) -> bool:
+    """Whether every element is in [0, 1] and the sum is 1 within :data:`SIMPLEX_ATOL`.
+
+    One pass (NaN fails the range test): the check of every change nature makes to a slip
+    vector, where ``min``, ``max`` and ``sum`` took twice as long.
+    """
+    total = 0.0
+    for p in vector:
+        if not 0.0 <= p <= 1.0:
+            return False
+        total += p
+    return abs(total - 1.0) <= SIMPLEX_ATOL
 
 
 def project_to_simplex(vector: Sequence[float]) -> tuple[float, ...]:

@@ -137,6 +137,11 @@ class NSProcess:
 
         self.param_names = family.params_cls.names()
         self.no_change: tuple[float, ...] = (0.0,) * len(self.param_names)
+        self._single_changes = {
+            name: (tuple(1 if other == name else 0 for other in self.param_names), i)
+            for i, name in enumerate(self.param_names)
+        }
+        """Per parameter: the flags of a change of it alone, and its position."""
         self.build = ObservationBuilder(family)
         self.env_rng: np.random.Generator | None = None
         self.nature_rng: np.random.Generator | None = None
@@ -352,11 +357,7 @@ class NSProcess:
         if type(monitor) is OracleMonitor:  # its notification is the truth: no checks needed
             if self.last_change is None:
                 return self.no_change, self.no_change
-            truth = self.last_sizes()
-            flags = tuple([1 if size > 0.0 else 0 for size in truth])
-            if 1 not in flags:
-                return self.no_change, self.no_change
-            return flags, truth if level is NotificationLevel.DETAILED else self.no_change
+            return self._oracle_notice(level is NotificationLevel.DETAILED)
         told: tuple[float, ...] | None = None  # the true sizes, for monitors that read them
         if monitor.reads_ground_truth:
             if self.last_change is None and monitor.quiet_without_change:
@@ -370,6 +371,22 @@ class NSProcess:
             self.monitor_rng,  # type: ignore[arg-type]
         )
         return mask_notification(level, flags, sizes, self.no_change)
+
+    def _oracle_notice(self, with_sizes: bool) -> tuple[tuple, tuple]:
+        """The true notification of the last transition's change (there was one)."""
+        nothing = self.no_change
+        sizes = self._last_sizes
+        if sizes is not None and len(sizes) == 1:  # one parameter changed: the usual case
+            for name, size in sizes.items():
+                if not size > 0.0:
+                    return nothing, nothing
+                flags, i = self._single_changes[name]
+                return flags, (nothing[:i] + (size,) + nothing[i + 1 :]) if with_sizes else nothing
+        truth = self.last_sizes()
+        flags = tuple([1 if size > 0.0 else 0 for size in truth])
+        if 1 not in flags:
+            return nothing, nothing
+        return flags, truth if with_sizes else nothing
 
     def monitor_turn(self, flags: Sequence[Any], sizes: Sequence[Any]) -> None:
         """Send the notification of this step (masked to the level) and give the agent the turn.

@@ -14,6 +14,7 @@ from ns_pz.nature import (
     DiscreteScheduler,
     DistributionDecrementUpdate,
     IncrementUpdate,
+    RandomNature,
     ScriptedNature,
     StepWiseUpdate,
 )
@@ -278,3 +279,37 @@ def test_stepping_the_real_env_leaves_its_copies_alone(keep_nature):
         return trace, twin.ground_truth(), dict(twin.process.spent)
 
     assert branch_run(False) == branch_run(True)
+
+
+@pytest.mark.parametrize("level", ["basic", "detailed"])
+@pytest.mark.parametrize(
+    "nature",
+    [
+        ScriptedNature({"masspole": IncrementUpdate(ContinuousScheduler(start=0), k=0.01)}),
+        RandomNature(scale=0.05),  # every parameter at once
+        ScriptedNature(  # two at once, one of them on some steps only
+            {
+                "masspole": IncrementUpdate(ContinuousScheduler(start=0), k=0.01),
+                "gravity": IncrementUpdate(DiscreteScheduler({2, 3, 7}), k=-0.5),
+            }
+        ),
+    ],
+    ids=["one parameter", "all parameters", "two parameters"],
+)
+def test_the_oracle_notification_is_the_true_change_of_the_last_transition(
+    level: str, nature: object
+) -> None:
+    """Flags and sizes match θ's change behind each transition, one or many parameters."""
+    env = ns_pz.NSGymEnv(CartPoleFamily(), nature=nature, notification=level)
+    env.reset(seed=3)
+    previous = env.ground_truth().theta0
+    for _ in range(12):
+        obs, _, terminated, truncated, _ = env.step(0)
+        if terminated or truncated:
+            break
+        ran_under = env.process.last_theta
+        sizes = ran_under.change_sizes(previous)
+        assert obs["env_change"].tolist() == [1 if s > 0 else 0 for s in sizes]
+        shown = np.asarray(sizes, np.float32) if level == "detailed" else np.zeros(len(sizes))
+        assert obs["delta_change"].tolist() == shown.tolist()
+        previous = ran_under
