@@ -147,6 +147,9 @@ class NSGame(AECEnv):
         }
         self._rewarded = False
         self._scripted: tuple[np.ndarray, list, Any, int] | None = None
+        self._scripted_notice: tuple[Any, list[np.ndarray], list[list], int] | None = None
+        """The monitor policy's action handed out this turn: the object, its arrays, their
+        values then, and the step."""
         # Before the first reset: calls meet ResetNeeded, not missing attributes.
         self.agent_selection = NATURE
         self.rewards: dict[str, float] = {}
@@ -187,6 +190,7 @@ class NSGame(AECEnv):
         self.agent_selection = NATURE
         self._rewarded = False
         self._scripted = None
+        self._scripted_notice = None
         if self.render_mode == "human":
             self.render()
 
@@ -240,7 +244,11 @@ class NSGame(AECEnv):
             process.nature_turn(proposal)
             self._scripted = None
         elif agent == MONITOR:
-            process.monitor_turn(*self._notification_of(action))
+            if self._is_policy_notice(action):  # the policy's own notification, exact
+                process.play_until(DECISION)
+            else:
+                process.monitor_turn(*self._notification_of(action))
+            self._scripted_notice = None
         else:
             action = process.family.check_action(action)
         # Rewards arise only from the transition at the end of the decision turn; the other
@@ -276,6 +284,26 @@ class NSGame(AECEnv):
         if self.render_mode == "human":
             self.render()
 
+    def _is_policy_notice(self, action: Any) -> bool:
+        """Whether ``action`` is what :meth:`policy_action` handed out this turn, unmodified.
+
+        Never with ``monitor_action="flags"``: that monitor sends no sizes, while the configured
+        policy's notification has them.
+        """
+        scripted = self._scripted_notice
+        if (
+            self._monitor_flags_only
+            or scripted is None
+            or action is not scripted[0]
+            or scripted[3] != self._process.t
+        ):
+            return False
+        arrays = list(action.values())
+        return len(arrays) == len(scripted[1]) and all(
+            now is then and now.tolist() == values
+            for now, then, values in zip(arrays, scripted[1], scripted[2], strict=True)
+        )
+
     def _notification_of(self, action: Any) -> tuple[list, list]:
         """Flags and sizes of a monitor action (lengths and sizes are checked by the process)."""
         if self._monitor_flags_only:
@@ -305,7 +333,8 @@ class NSGame(AECEnv):
         game's convention; a scripted value may lie beyond it (a jump larger than the
         allowance) or miss by a rounding error (no float Δ turns 1.0 into 0.3 exactly), so the
         game remembers the exact values behind the array it hands out and grants those when
-        that same, unmodified array is stepped in this turn.
+        that same, unmodified array is stepped in this turn. Likewise the monitor's exact
+        notification (float64 sizes) is sent when its unmodified action is stepped.
 
         Raises:
             ValueError: ``agent`` is not ``"nature"`` or ``"monitor"``, or it is not its turn.
@@ -323,12 +352,19 @@ class NSGame(AECEnv):
             return delta
         if agent == MONITOR:
             flags, sizes = process.scripted_notification()
+            scripted = self._scripted_notice
+            if scripted is not None and scripted[3] == process.t:
+                return scripted[0]
+            notice: Any
             if self._monitor_flags_only:
-                return np.array(flags, np.int64)
-            return {
-                "env_change": np.array(flags, np.int8),
-                "delta_change": np.array(sizes, np.float32),
-            }
+                notice = np.array(flags, np.int64)
+                arrays = [notice]
+            else:
+                arrays = [np.array(flags, np.int8), np.array(sizes, np.float32)]
+                notice = {"env_change": arrays[0], "delta_change": arrays[1]}
+            # Stepped unmodified, the exact notification behind it is played (as for nature).
+            self._scripted_notice = (notice, arrays, [a.tolist() for a in arrays], process.t)
+            return notice
         raise ValueError(
             f"agent={agent!r} has no configured policy; allowed: {NATURE!r}, {MONITOR!r}"
         )

@@ -10,7 +10,9 @@ from pettingzoo.utils.conversions import turn_based_aec_to_parallel
 import ns_pz
 from ns_pz import DECISION, MONITOR, NATURE, ResetNeeded
 from ns_pz.nature import (
+    ContinuousScheduler,
     DiscreteScheduler,
+    IncrementUpdate,
     NatureConstraints,
     RandomNature,
     ScriptedNature,
@@ -340,3 +342,31 @@ def test_reset_options_set_theta0_for_one_episode():
             env.reset(seed=0, options={"colour": "red"})
         with pytest.raises(ns_pz.ParamOutOfRange, match="masspole=-1"):
             env.reset(seed=0, options={"params": {"masspole": -1.0}})
+
+
+@pytest.mark.parametrize("flags_only", [False, True])
+def test_the_monitor_policys_unmodified_action_sends_its_exact_notification(
+    flags_only: bool,
+) -> None:
+    """Stepped as handed out: the exact float64 sizes; modified in place: what it now says."""
+    nature = ScriptedNature({"masspole": IncrementUpdate(ContinuousScheduler(start=0), k=1e-3)})
+    kwargs = {"monitor_action": "flags"} if flags_only else {}
+    game = ns_pz.make("ns_pz/CartPole-v0", nature=nature, notification="detailed", **kwargs)
+    game.reset(seed=0)
+    for step in range(3):
+        game.step(game.policy_action(NATURE))
+        action = game.policy_action(MONITOR)
+        assert game.policy_action(MONITOR) is action  # asked once per turn
+        truth = game.process.last_sizes()
+        if step == 2:  # the user edits the handed-out action: it is taken as it now is
+            (action if flags_only else action["env_change"])[:] = 0
+        game.step(action)
+        flags, sizes = game.process.notice
+        if step == 0:  # no transition yet, nothing to notify
+            assert not any(flags) and not any(sizes)
+        elif step == 1:
+            assert flags == tuple(1 if s > 0 else 0 for s in truth)
+            assert sizes == (game.process.no_change if flags_only else truth)  # not float32
+        else:
+            assert not any(flags) and not any(sizes)
+        game.step(1)

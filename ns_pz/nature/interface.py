@@ -128,7 +128,11 @@ class NatureInterface:
         self._no_budgets = (1.0,) * n_budgets
         self._budgets_at = 1 + len(width)
         self._theta0: Params | None = None
-        self._theta0_flat = np.zeros(len(width))
+        self._theta0_values: list[float] = []
+        self._scales = self._offset_scale.tolist()
+        self._lows = self._action_low.tolist()
+        self._highs = self._action_high.tolist()
+        self._no_action = np.zeros(len(width), self.action_space.dtype)
 
     # -- observation ------------------------------------------------------------------------
     def _observation_space(self, width: np.ndarray) -> spaces.Box:
@@ -152,33 +156,38 @@ class NatureInterface:
 
     def observe(self, process: NSProcess) -> np.ndarray:
         """Nature's observation of ``process`` now (a fresh array)."""
-        out = np.empty(self.observation_space.shape, np.float32)
-        out[0] = process.t if self._limit is None else process.t / self._limit
         theta0 = process.theta0
         if theta0 is not self._theta0:  # θ_0 may differ per episode (reset options)
-            self._theta0, self._theta0_flat = theta0, theta0.flat()
-        at = self._budgets_at
-        out[1:at] = (process.theta.flat() - self._theta0_flat) / self._offset_scale
+            self._theta0, self._theta0_values = theta0, theta0.flat_values()
+        # Built as one list of floats, then one array: the same float64 arithmetic as array
+        # operations, rounded to float32 once, at a fraction of the cost for a few parameters.
+        row = [process.t if self._limit is None else process.t / self._limit]
+        row += [
+            (value - start) / scale
+            for value, start, scale in zip(  # equal lengths by construction
+                process.theta.flat_values(), self._theta0_values, self._scales, strict=False
+            )
+        ]
         constraints = self._constraints
         if constraints.has_budget:
-            budgets = budget_fractions_left(constraints, self._params_cls, process.spent)
+            row += budget_fractions_left(constraints, self._params_cls, process.spent)
         else:
-            budgets = self._no_budgets
-        end = at + len(budgets)
-        out[at:end] = budgets
-        out[end] = float(constraints.has_budget)
-        if self._state_space is not None:
-            state = np.asarray(
-                spaces.flatten(self._state_space, process.family.observe(process.state))
-            )
-            stop = end + 1 + state.size
-            out[end + 1 : stop] = state
-            assert self._action_of_agent is not None  # set together with _state_space
-            last = process.last_action
-            if last is None:
-                out[stop:] = 0.0
-            else:
-                out[stop:] = np.asarray(spaces.flatten(self._action_of_agent, last))
+            row += self._no_budgets
+        row.append(float(constraints.has_budget))
+        if self._state_space is None:
+            return np.array(row, np.float32)
+        out = np.empty(self.observation_space.shape, np.float32)
+        end = len(row)
+        out[:end] = row
+        state = np.asarray(spaces.flatten(self._state_space, process.family.observe(process.state)))
+        stop = end + state.size
+        out[end:stop] = state
+        assert self._action_of_agent is not None  # set together with _state_space
+        last = process.last_action
+        if last is None:
+            out[stop:] = 0.0
+        else:
+            out[stop:] = np.asarray(spaces.flatten(self._action_of_agent, last))
         return out
 
     # -- actions ----------------------------------------------------------------------------
@@ -231,32 +240,37 @@ class NatureInterface:
             theta: The θ in force.
             proposal: New values by parameter name, or ``None``.
         """
-        current = theta.flat_values()
-        delta = [0.0] * len(current)
-        if proposal:
-            slots = self._slots
-            for name, value in proposal.items():
-                slot = slots.get(name)
-                if slot is None:
-                    theta.spec(name)  # raises UnknownParam
-                    continue
-                start, stop = slot
-                if stop - start == 1:
-                    delta[start] = value - current[start]
-                    continue
-                if len(value) != stop - start:
-                    raise ValueError(
-                        f"proposal[{name!r}]={value!r} has {len(value)} elements; "
-                        f"{name!r} has {stop - start}"
-                    )
-                for i, p in enumerate(value, start):
-                    delta[i] = p - current[i]
-        array = np.array(delta)
+        if not proposal:
+            return self._no_action.copy()
+        delta = [0.0] * len(self._scales)
+        slots = self._slots
+        for name, value in proposal.items():
+            slot = slots.get(name)
+            if slot is None:
+                theta.spec(name)  # raises UnknownParam
+                continue
+            start, stop = slot
+            current = getattr(theta, name)
+            if stop - start == 1:
+                delta[start] = value - current
+                continue
+            if len(value) != stop - start:
+                raise ValueError(
+                    f"proposal[{name!r}]={value!r} has {len(value)} elements; "
+                    f"{name!r} has {stop - start}"
+                )
+            for i, (p, c) in enumerate(zip(value, current, strict=True), start):
+                delta[i] = p - c
+        # Scaled and clipped element by element: what the array operations did, in float64.
+        lows, highs = self._lows, self._highs
         if self.action_mode == "normalized":
-            array /= self._offset_scale
-        np.maximum(array, self._action_low, out=array)
-        np.minimum(array, self._action_high, out=array)
-        return array.astype(self.action_space.dtype)
+            scales = self._scales
+            delta = [d / scale for d, scale in zip(delta, scales, strict=False)]
+        delta = [
+            low if d < low else high if d > high else d  # NaN stays NaN, as with np.clip
+            for d, low, high in zip(delta, lows, highs, strict=False)
+        ]
+        return np.array(delta, self.action_space.dtype)
 
     def _checked(self, action: Any) -> list[float]:
         space = self.action_space
