@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from gymnasium import spaces
 from gymnasium.utils.env_checker import check_env
 from ns_pz.agents import SnapshotValueIteration
 from ns_pz.agents.exact import OracleReference
@@ -468,3 +469,48 @@ def test_replay_regret_with_a_detector_and_a_per_episode_theta0():
         done = terminated or truncated
     assert env.process.theta0.length == 0.02 and env.process.t == 4
     assert total == pytest.approx(0.0)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "observes_state", "constraints"),
+    [
+        ("ns_pz/CartPole-v0", True, NatureConstraints(budget={"masspole": 0.5})),
+        ("ns_pz/FrozenLake-v0", False, NatureConstraints(budget=0.4)),
+        ("ns_pz/CartPole-v0", False, None),
+    ],
+)
+def test_nature_observation_layout_entry_by_entry(
+    env_id: str, observes_state: bool, constraints: NatureConstraints | None
+) -> None:
+    """Clock, θ offsets, budgets left, budget flag, then state and last action, as documented."""
+    from ns_pz.nature.constraints import budget_fractions_left
+    from ns_pz.nature.interface import NatureInterface
+
+    game = ns_pz.make(env_id, nature=ns_pz.nature.RandomNature(0.05), constraints=constraints)
+    game.reset(seed=4)
+    process = game.process
+    interface = NatureInterface(
+        process.family,
+        process.theta0,
+        process.constraints,
+        process.max_episode_steps,
+        observes_state=observes_state,
+    )
+    for _ in range(4):
+        for agent in (NATURE, MONITOR):
+            game.step(game.policy_action(agent))
+        game.step(0)
+        observation = interface.observe(process)
+        offsets = (process.theta.flat() - process.theta0.flat()) / np.where(
+            interface.allowance > 0.0, interface.allowance, 1.0
+        )
+        budgets = budget_fractions_left(process.constraints, process.family.params_cls, process.spent)
+        expected = [process.t / process.max_episode_steps, *offsets, *budgets]
+        expected.append(float(process.constraints.has_budget))
+        if observes_state:
+            action_space = process.family.action_space  # a Discrete action: one-hot
+            expected += [*process.family.observe(process.state)]
+            expected += [*spaces.flatten(action_space, process.last_action)]
+        assert observation.dtype == np.float32
+        assert observation.tolist() == np.array(expected, np.float32).tolist()
+        assert interface.observation_space.contains(observation)
