@@ -504,7 +504,9 @@ def test_nature_observation_layout_entry_by_entry(
         offsets = (process.theta.flat() - process.theta0.flat()) / np.where(
             interface.allowance > 0.0, interface.allowance, 1.0
         )
-        budgets = budget_fractions_left(process.constraints, process.family.params_cls, process.spent)
+        budgets = budget_fractions_left(
+            process.constraints, process.family.params_cls, process.spent
+        )
         expected = [process.t / process.max_episode_steps, *offsets, *budgets]
         expected.append(float(process.constraints.has_budget))
         if observes_state:
