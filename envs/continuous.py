@@ -38,8 +38,8 @@ def f32(x: float) -> float:
 def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
     """``action`` as an array of the space's dtype and shape; finite, possibly out of bounds.
 
-    An array of the right dtype is returned as it is (as ``np.asarray`` would), anything else
-    is converted.
+    Always a new array: the process keeps it as the last action (the monitor observes it), so it
+    must not change when the caller reuses its own buffer for the next action.
 
     Args:
         space: The family's action space (a float Box).
@@ -55,7 +55,7 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
         and action.size == 1
         and math.isfinite(action.item())
     ):
-        return action
+        return action.copy()
     clipping = f"low={space.low.tolist()}, high={space.high.tolist()}"
     try:
         array = np.asarray(action, dtype=space.dtype)
@@ -75,4 +75,4 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
             f"action={action!r} is not finite; allowed: finite values (out-of-range ones are "
             f"clipped into {clipping})"
         )
-    return array
+    return array.copy() if array is action else array

@@ -77,7 +77,7 @@ class EnvFamily(ABC):
             if isinstance(action, (np.integer, np.ndarray)) and space.contains(action):
                 return int(action)
         elif space.contains(np.asarray(action, dtype=space.dtype)):
-            return np.asarray(action, dtype=space.dtype)
+            return np.array(action, dtype=space.dtype)  # our own copy: it becomes last_action
         raise ValueError(f"action={action!r} is outside the action space {space}")
 
     def check_state(self, state: Any) -> State:

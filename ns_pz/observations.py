@@ -115,14 +115,19 @@ class ObservationBuilder:
 
     def monitor(self, process: NSProcess) -> dict:
         """The monitor's observation of the process's last transition (a null action before it)."""
+        reward = self._zero_clock.copy()
+        reward[0] = process.last_reward
+        clock = self._zero_clock.copy()
+        clock[0] = process.t
+        action = self._null_action if process.last_action is None else process.last_action
+        if type(action) is np.ndarray:  # the agent's own array, or our template: a copy
+            action = action.copy()
         return {
             "last_state": self._observe(process.last_state),
-            "last_action": self._null_action
-            if process.last_action is None
-            else process.last_action,
-            "last_reward": np.array((process.last_reward,), np.float32),
+            "last_action": action,
+            "last_reward": reward,
             "state": self._observe(process.state),
-            "relative_time": np.array((process.t,), np.float32),
+            "relative_time": clock,
         }
 
 

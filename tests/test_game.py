@@ -370,3 +370,20 @@ def test_the_monitor_policys_unmodified_action_sends_its_exact_notification(
         else:
             assert not any(flags) and not any(sizes)
         game.step(1)
+
+
+def test_the_monitors_observation_owns_its_arrays() -> None:
+    """``last_action`` is neither the agent's array (which it may reuse) nor a shared template."""
+    game = ns_pz.make("ns_pz/MountainCarContinuous-v0")
+    game.reset(seed=0)
+    first = game.observe(MONITOR)
+    game.reset(seed=0)
+    assert game.observe(MONITOR)["last_action"] is not first["last_action"]
+    push = np.array([0.5], np.float32)
+    game.step(game.policy_action(NATURE))
+    game.step(game.policy_action(MONITOR))
+    game.step(push)
+    seen = game.observe(MONITOR)
+    push[0] = -1.0  # the agent reuses its buffer
+    assert seen["last_action"].tolist() == [0.5]
+    assert game.observe(MONITOR)["last_action"].tolist() == [0.5]
