@@ -396,7 +396,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
                     f"actions={actions!r} must be {self.num_envs} ints in "
                     f"[{space.start}, {space.start + space.n})"
                 )
-            return array.astype(np.int64)
+            return array.astype(np.int64, copy=False)
         return array
 
     def _transition(
@@ -436,15 +436,18 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         if limit is not None:
             np.logical_and(stepping, self._t >= limit, out=truncated)
         done = terminated | truncated
-        self._flags.fill(0)
-        self._sizes.fill(0.0)
         notify = changed & ~done
-        if self.level.shows_flags and notify.any():
+        if self.level.shows_flags and notify.any():  # every row is written
             sizes = self._change_sizes(last, theta)
             sizes *= notify[:, None]
-            self._flags[:] = sizes > 0.0
+            np.greater(sizes, 0.0, out=self._flags)
             if self.level.shows_sizes:
                 self._sizes[:] = sizes
+            else:
+                self._sizes.fill(0.0)
+        else:
+            self._flags.fill(0)
+            self._sizes.fill(0.0)
         np.copyto(last, theta, where=changed[:, None])
         acting = stepping & ~done
         acting |= restarted
