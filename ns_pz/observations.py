@@ -100,9 +100,17 @@ class ObservationBuilder:
             else self._flags_array(flags),
             "delta_change": self._zero_sizes.copy()
             if sizes is no_change
-            else np.array(sizes, np.float32),
+            else self._sizes_array(sizes),
             "relative_time": clock,
         }
+
+    def _sizes_array(self, sizes: tuple) -> np.ndarray:
+        """A new float32 array of ``sizes`` (one parameter: the template copied and set)."""
+        if len(sizes) == 1:
+            array = self._zero_sizes.copy()
+            array[0] = sizes[0]
+            return array
+        return np.array(sizes, np.float32)
 
     def _flags_array(self, flags: tuple) -> np.ndarray:
         """A new int8 array of ``flags``, copied from a template kept per flag pattern."""

@@ -314,6 +314,10 @@ class NSProcess:
             ResetNeeded / ValueError: No episode is running, or it is not nature's turn.
         """
         self.check_turn(NATURE, "nature's turn")
+        self._grant(proposal)
+
+    def _grant(self, proposal: Mapping[str, Any] | None) -> None:
+        """Nature's turn, once it is known to be nature's turn (:meth:`nature_turn`)."""
         self._pending = None
         self.turn = MONITOR
         if not proposal:
@@ -506,7 +510,7 @@ class NSProcess:
             # here, once (without the turn checks and caching of scripted_proposal/notification).
             if turn == NATURE:
                 answer = self._answered()
-                self.nature_turn(self.nature.act(self) if answer is _UNASKED else answer)
+                self._grant(self.nature.act(self) if answer is _UNASKED else answer)
             elif turn == MONITOR:  # monitor_turn without re-checking the masked notification
                 answer = self._answered()
                 self.notice = self._monitor_says() if answer is _UNASKED else answer

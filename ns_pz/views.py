@@ -112,7 +112,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             float(reward),
             bool(terminated),
             bool(truncated),
-            self._info(),
+            self._info() if self._ground_truth_info else {},
         )
 
     def render(self) -> Any:
