@@ -295,7 +295,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         n = self.num_envs
         infos: dict[str, Any] = {}
         if self.autoreset_mode is AutoresetMode.NEXT_STEP:
-            resetting = self._autoreset.copy()
+            resetting = self._autoreset  # replaced, never written in place, below
             stepping = ~resetting
         else:
             resetting = np.zeros(n, np.bool_)
@@ -309,7 +309,9 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             self._reset_rows(resetting, None, act=False)
         if stepping.any():
             self._transition(stepping, actions, rewards, terminated, truncated, resetting)
-        elif restart:
+        elif restart:  # every row restarts: no transition writes their notifications
+            self._flags.fill(0)
+            self._sizes.fill(0.0)
             assert self._schedule is not None
             self._schedule.act(self, resetting)
         ended = terminated | truncated
@@ -367,13 +369,12 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         """
         cursor = self._cursor
         at = cursor[rows]
-        short = rows[at + count > _BUFFER]
-        for i in short:  # keep what is left, then draw on
-            left = self._uniforms[i, cursor[i] :].copy()
-            self._uniforms[i, : len(left)] = left
-            self._uniforms[i, len(left) :] = self._rngs[i].random(_BUFFER - len(left))  # type: ignore[union-attr]
-            cursor[i] = 0
-        if len(short):
+        if len(at) and at.max() > _BUFFER - count:  # some buffers are short (rarely)
+            for i in rows[at + count > _BUFFER]:  # keep what is left, then draw on
+                left = self._uniforms[i, cursor[i] :].copy()
+                self._uniforms[i, : len(left)] = left
+                self._uniforms[i, len(left) :] = self._rngs[i].random(_BUFFER - len(left))  # type: ignore[union-attr]
+                cursor[i] = 0
             at = cursor[rows]
         if count == 1:
             values = self._uniforms[rows, at][:, None]
@@ -435,8 +436,8 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         limit = self.max_episode_steps
         if limit is not None:
             np.logical_and(stepping, self._t >= limit, out=truncated)
-        done = terminated | truncated
-        notify = changed & ~done
+        running = ~(terminated | truncated)
+        notify = changed & running
         if self.level.shows_flags and notify.any():  # every row is written
             sizes = self._change_sizes(last, theta)
             sizes *= notify[:, None]
@@ -449,7 +450,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             self._flags.fill(0)
             self._sizes.fill(0.0)
         np.copyto(last, theta, where=changed[:, None])
-        acting = stepping & ~done
+        acting = stepping & running
         acting |= restarted
         assert self._schedule is not None
         self._schedule.act(self, acting)
@@ -498,7 +499,8 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
     ) -> None:
         """Start new episodes in the selected sub-envs (a bool mask).
 
-        ``act=False`` leaves nature's first turn to the caller (array engine only).
+        ``act=False`` leaves nature's first turn and the rows' notifications to the caller (array
+        engine only): the transition that follows in :meth:`step` writes every row of both.
         """
         kernel = self.kernel
         starts = None
@@ -537,11 +539,11 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         self._theta[indices] = theta0
         self._last_theta[indices] = theta0
         self._t[indices] = 0
-        self._flags[indices] = 0
-        self._sizes[indices] = 0.0
         assert self._schedule is not None
         self._schedule.restart(indices, self.num_envs)
         if act:
+            self._flags[indices] = 0
+            self._sizes[indices] = 0.0
             self._schedule.act(self, rows)
 
     def _change_sizes(self, before: np.ndarray, after: np.ndarray) -> np.ndarray:
@@ -652,7 +654,7 @@ class _ArraySchedule:
             old = theta[:, start:stop]
             new = self._propose(spec, rule, old, counts, fires)
             counts += fires
-            moved = (new != old).any(axis=1)
+            moved = new[:, 0] != old[:, 0] if stop - start == 1 else (new != old).any(axis=1)
             moved &= fires
             np.copyto(old, new, where=moved[:, None])
 
