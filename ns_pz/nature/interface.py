@@ -242,7 +242,7 @@ class NatureInterface:
         """
         if not proposal:
             return self._no_action.copy()
-        delta = [0.0] * len(self._scales)
+        delta = [0.0] * len(self._scales)  # 0 is inside the action space, scaled or not
         slots = self._slots
         for name, value in proposal.items():
             slot = slots.get(name)
@@ -252,7 +252,7 @@ class NatureInterface:
             start, stop = slot
             current = getattr(theta, name)
             if stop - start == 1:
-                delta[start] = value - current
+                delta[start] = self._in_space(value - current, start)
                 continue
             if len(value) != stop - start:
                 raise ValueError(
@@ -260,17 +260,16 @@ class NatureInterface:
                     f"{name!r} has {stop - start}"
                 )
             for i, (p, c) in enumerate(zip(value, current, strict=True), start):
-                delta[i] = p - c
-        # Scaled and clipped element by element: what the array operations did, in float64.
-        lows, highs = self._lows, self._highs
-        if self.action_mode == "normalized":
-            scales = self._scales
-            delta = [d / scale for d, scale in zip(delta, scales, strict=False)]
-        delta = [
-            low if d < low else high if d > high else d  # NaN stays NaN, as with np.clip
-            for d, low, high in zip(delta, lows, highs, strict=False)
-        ]
+                delta[i] = self._in_space(p - c, i)
         return np.array(delta, self.action_space.dtype)
+
+    def _in_space(self, change: float, i: int) -> float:
+        """Element ``i`` of the action for a θ change: scaled (normalised) and clipped in float64,
+        as the array operations did; NaN stays NaN, as with ``np.clip``."""
+        if self.action_mode == "normalized":
+            change = change / self._scales[i]
+        low, high = self._lows[i], self._highs[i]
+        return low if change < low else high if change > high else change
 
     def _checked(self, action: Any) -> list[float]:
         space = self.action_space
