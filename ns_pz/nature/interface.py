@@ -264,8 +264,11 @@ class NatureInterface:
         return np.array(delta, self.action_space.dtype)
 
     def _in_space(self, change: float, i: int) -> float:
-        """Element ``i`` of the action for a θ change: scaled (normalised) and clipped in float64,
-        as the array operations did; NaN stays NaN, as with ``np.clip``."""
+        """Element ``i`` of the action for a change of θ's flat element ``i``.
+
+        Scaled (normalised) and clipped in float64, as array operations would; NaN stays NaN,
+        as with ``np.clip``.
+        """
         if self.action_mode == "normalized":
             change = change / self._scales[i]
         low, high = self._lows[i], self._highs[i]
