@@ -297,3 +297,33 @@ def test_action_of_refuses_proposals_that_do_not_fit_theta():
             interface.action_of(FrozenLakeParams(), {"slip": short_or_long})
     action = interface.action_of(FrozenLakeParams(), {"slip": (1.0, 0.0, 0.0)})
     assert action.shape == (3,) and action.dtype == np.float32
+
+
+@pytest.mark.parametrize("mode", ["normalized", "delta"])
+def test_action_of_is_the_clipped_scaled_change_of_the_flat_theta(mode: str) -> None:
+    """Element by element: (proposed - current) / allowance (normalised), clipped to the space."""
+    from ns_pz.envs.cartpole import CartPoleFamily
+
+    from ns_pz.nature.interface import NatureInterface
+
+    theta = CartPoleParams()
+    interface = NatureInterface(CartPoleFamily(), theta, NatureConstraints(), 500, action=mode)
+    space = interface.action_space
+    scale = np.where(interface.allowance > 0.0, interface.allowance, 1.0)
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        proposal = {
+            name: getattr(theta, name) + rng.normal() * 10.0 ** rng.integers(-4, 4)
+            for name in theta.names()
+            if rng.random() < 0.5
+        }
+        target = theta.flat()
+        for i, name in enumerate(theta.names()):
+            target[i] = proposal.get(name, target[i])
+        change = target - theta.flat()
+        if mode == "normalized":
+            change /= scale
+        expected = np.clip(change, space.low.astype(np.float64), space.high.astype(np.float64))
+        action = interface.action_of(theta, proposal)
+        assert action.dtype == space.dtype
+        assert action.tobytes() == expected.astype(space.dtype).tobytes()
