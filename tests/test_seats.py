@@ -484,18 +484,11 @@ def test_nature_observation_layout_entry_by_entry(
 ) -> None:
     """Clock, θ offsets, budgets left, budget flag, then state and last action, as documented."""
     from ns_pz.nature.constraints import budget_fractions_left
-    from ns_pz.nature.interface import NatureInterface
 
     game = ns_pz.make(env_id, nature=ns_pz.nature.RandomNature(0.05), constraints=constraints)
     game.reset(seed=4)
     process = game.process
-    interface = NatureInterface(
-        process.family,
-        process.theta0,
-        process.constraints,
-        process.max_episode_steps,
-        observes_state=observes_state,
-    )
+    interface = process.nature_interface("normalized", observes_state=observes_state)
     for _ in range(4):
         for agent in (NATURE, MONITOR):
             game.step(game.policy_action(agent))
