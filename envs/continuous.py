@@ -58,7 +58,7 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
         return action.copy()
     clipping = f"low={space.low.tolist()}, high={space.high.tolist()}"
     try:
-        array = np.asarray(action, dtype=space.dtype)
+        array = np.array(action, dtype=space.dtype)  # a copy, even of a view or a subclass
     except (TypeError, ValueError):
         raise ValueError(
             f"action={action!r} is not a numeric array; allowed: finite values of shape "
@@ -75,4 +75,4 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
             f"action={action!r} is not finite; allowed: finite values (out-of-range ones are "
             f"clipped into {clipping})"
         )
-    return array.copy() if array is action else array
+    return array

@@ -231,7 +231,7 @@ class MujocoFamily(EnvFamily):
             offset += count * 8
 
     def check_action(self, action: Any) -> np.ndarray:
-        """A float32 array of the action space's shape; finite values outside are kept.
+        """A new float32 array of the action space's shape; finite values outside are kept.
 
         Raises:
             ValueError: Not numeric, of another shape, or not finite.
@@ -243,7 +243,7 @@ class MujocoFamily(EnvFamily):
             and action.shape == space.shape
             and np.isfinite(action).all()
         ):
-            return action
+            return action.copy()  # ours: the process keeps it as the last action
         return check_box_action(space, action)  # type: ignore[arg-type]
 
     def step(

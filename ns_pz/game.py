@@ -293,6 +293,7 @@ class NSGame(AECEnv):
         scripted = self._scripted_notice
         if (
             self._monitor_flags_only
+            or self._process.turn != MONITOR
             or scripted is None
             or action is not scripted[0]
             or scripted[3] != self._process.t

@@ -372,9 +372,12 @@ def test_the_monitor_policys_unmodified_action_sends_its_exact_notification(
         game.step(1)
 
 
-def test_the_monitors_observation_owns_its_arrays() -> None:
+@pytest.mark.parametrize("env_id", ["ns_pz/MountainCarContinuous-v0", "ns_pz/InvertedPendulum-v0"])
+def test_the_monitors_observation_owns_its_arrays(env_id: str) -> None:
     """``last_action`` is neither the agent's array (which it may reuse) nor a shared template."""
-    game = ns_pz.make("ns_pz/MountainCarContinuous-v0")
+    if "Pendulum" in env_id:
+        pytest.importorskip("mujoco")
+    game = ns_pz.make(env_id)
     game.reset(seed=0)
     first = game.observe(MONITOR)
     game.reset(seed=0)
@@ -387,3 +390,14 @@ def test_the_monitors_observation_owns_its_arrays() -> None:
     push[0] = -1.0  # the agent reuses its buffer
     assert seen["last_action"].tolist() == [0.5]
     assert game.observe(MONITOR)["last_action"].tolist() == [0.5]
+
+
+def test_the_monitor_policys_action_is_refused_out_of_its_turn() -> None:
+    """Even the policy's own, unmodified action is refused once it is not the monitor's turn."""
+    game = ns_pz.make("ns_pz/CartPole-v0", notification="detailed")
+    game.reset(seed=0)
+    game.step(game.policy_action(NATURE))
+    action = game.policy_action(MONITOR)
+    game.process.play_until(DECISION)  # someone else played the monitor's turn
+    with pytest.raises(ValueError, match="turn"):
+        game.step(action)

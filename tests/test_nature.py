@@ -299,27 +299,39 @@ def test_action_of_refuses_proposals_that_do_not_fit_theta():
     assert action.shape == (3,) and action.dtype == np.float32
 
 
+@pytest.mark.parametrize("number", [float, np.float32])
 @pytest.mark.parametrize("mode", ["normalized", "delta"])
-def test_action_of_is_the_clipped_scaled_change_of_the_flat_theta(mode: str) -> None:
-    """Element by element: (proposed - current) / allowance (normalised), clipped to the space."""
+@pytest.mark.parametrize("lake", [False, True], ids=["CartPole", "FrozenLake"])
+def test_action_of_is_the_clipped_scaled_change_of_the_flat_theta(
+    lake: bool, mode: str, number: type
+) -> None:
+    """Element by element: (proposed - current) / allowance (normalised), clipped to the space.
+
+    In float64 whatever the proposal's number type (a NumPy float32 one included).
+    """
     from ns_pz.envs.cartpole import CartPoleFamily
+    from ns_pz.envs.frozen_lake import FrozenLakeFamily
 
     from ns_pz.nature.interface import NatureInterface
 
-    theta = CartPoleParams()
-    interface = NatureInterface(CartPoleFamily(), theta, NatureConstraints(), 500, action=mode)
+    family = FrozenLakeFamily() if lake else CartPoleFamily()
+    theta = family.default_params()
+    interface = NatureInterface(family, theta, NatureConstraints(), 500, action=mode)
     space = interface.action_space
     scale = np.where(interface.allowance > 0.0, interface.allowance, 1.0)
+    layout = theta.flat_layout()
     rng = np.random.default_rng(5)
     for _ in range(200):
-        proposal = {
-            name: getattr(theta, name) + rng.normal() * 10.0 ** rng.integers(-4, 4)
-            for name in theta.names()
-            if rng.random() < 0.5
-        }
         target = theta.flat()
-        for i, name in enumerate(theta.names()):
-            target[i] = proposal.get(name, target[i])
+        proposal = {}
+        for spec, start, stop in layout:
+            if rng.random() < 0.5:
+                moved = target[start:stop] + rng.normal(size=stop - start) * 10.0 ** rng.integers(
+                    -4, 4
+                )
+                values = [number(v) for v in moved]
+                target[start:stop] = values  # what the proposal holds, as float64
+                proposal[spec.name] = values[0] if stop - start == 1 else tuple(values)
         change = target - theta.flat()
         if mode == "normalized":
             change /= scale

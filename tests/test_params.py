@@ -206,3 +206,5 @@ def test_evolve_trusted_changes_only_the_given_fields_and_leaves_theta_alone(
     assert new == theta.replace(**changes)
     assert theta.as_dict() == before
     assert new is not theta
+    generated = Params.layout_of(theta).evolve.__name__ == "evolve"
+    assert generated is not isinstance(theta, _UnslottedParams)  # slots: the generated copy

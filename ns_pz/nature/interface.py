@@ -252,7 +252,7 @@ class NatureInterface:
             start, stop = slot
             current = getattr(theta, name)
             if stop - start == 1:
-                delta[start] = self._in_space(value - current, start)
+                delta[start] = self._in_space(float(value) - current, start)
                 continue
             if len(value) != stop - start:
                 raise ValueError(
@@ -260,14 +260,15 @@ class NatureInterface:
                     f"{name!r} has {stop - start}"
                 )
             for i, (p, c) in enumerate(zip(value, current, strict=True), start):
-                delta[i] = self._in_space(p - c, i)
+                delta[i] = self._in_space(float(p) - c, i)
         return np.array(delta, self.action_space.dtype)
 
     def _in_space(self, change: float, i: int) -> float:
         """Element ``i`` of the action for a change of θ's flat element ``i``.
 
-        Scaled (normalised) and clipped in float64, as array operations would; NaN stays NaN,
-        as with ``np.clip``.
+        Scaled (normalised) and clipped in float64 (the caller made ``change`` a Python float,
+        so a NumPy float32 proposal is not worked out in float32); NaN stays NaN, as with
+        ``np.clip``.
         """
         if self.action_mode == "normalized":
             change = change / self._scales[i]
