@@ -507,3 +507,19 @@ def test_acrobot_wrap_subtracts_like_gymnasium_and_survives_huge_angles():
         assert _wrap(angle) == expected
     for angle in (1e5, -3e17, 1e300):
         assert -math.pi <= _wrap(angle) <= math.pi
+
+
+def test_a_checked_continuous_action_shares_no_memory_with_the_callers():
+    """Arrays, views of a buffer and ndarray subclasses come back as new arrays of their own."""
+    buffer = np.array([0.0, 0.5, 0.0], np.float32)
+    for family in (MountainCarContinuousFamily(), PendulumFamily()):
+        for action in (
+            np.array([0.5], np.float32),
+            buffer[1:2],
+            np.ma.array([0.5], dtype=np.float32),
+            np.array([0.5]),  # float64: converted
+        ):
+            checked = family.check_action(action)
+            assert type(checked) is np.ndarray and checked.dtype == np.float32
+            assert not np.shares_memory(checked, action)
+            assert checked.tolist() == [0.5]
