@@ -385,7 +385,11 @@ class NSProcess:
                 if not size > 0.0:
                     return nothing, nothing
                 flags, i = self._single_changes[name]
-                return flags, (nothing[:i] + (size,) + nothing[i + 1 :]) if with_sizes else nothing
+                if not with_sizes:
+                    return flags, nothing
+                if len(nothing) == 1:
+                    return flags, (size,)
+                return flags, nothing[:i] + (size,) + nothing[i + 1 :]
         truth = self.last_sizes()
         flags = tuple([1 if size > 0.0 else 0 for size in truth])
         if 1 not in flags:
@@ -508,11 +512,10 @@ class NSProcess:
             turn = self.turn
             # An answer already given this turn is the one played; otherwise the policy is asked
             # here, once (without the turn checks and caching of scripted_proposal/notification).
+            answer: Any = _UNASKED if self._pending is None else self._answered()  # None: usual
             if turn == NATURE:
-                answer = self._answered()
                 self._grant(self.nature.act(self) if answer is _UNASKED else answer)
             elif turn == MONITOR:  # monitor_turn without re-checking the masked notification
-                answer = self._answered()
                 self.notice = self._monitor_says() if answer is _UNASKED else answer
                 self._pending = None
                 self.turn = DECISION
