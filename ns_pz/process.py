@@ -327,7 +327,7 @@ class NSProcess:
             proposal,
             self.constraints,
             self.spent,
-            sizes_wanted=self.level is not NotificationLevel.NONE,  # the notification's
+            sizes_wanted=self.level is not _NONE,  # the notification's
         )
         if theta is self.theta:
             return
@@ -355,13 +355,13 @@ class NSProcess:
 
     def _monitor_says(self) -> tuple[tuple, tuple]:
         level = self.level
-        if level is NotificationLevel.NONE:
+        if level is _NONE:
             return self.no_change, self.no_change
         monitor = self.monitor
         if type(monitor) is OracleMonitor:  # its notification is the truth: no checks needed
             if self.last_change is None:
                 return self.no_change, self.no_change
-            return self._oracle_notice(level is NotificationLevel.DETAILED)
+            return self._oracle_notice(level is _DETAILED)
         told: tuple[float, ...] | None = None  # the true sizes, for monitors that read them
         if monitor.reads_ground_truth:
             if self.last_change is None and monitor.quiet_without_change:
@@ -691,6 +691,9 @@ class NSProcess:
         )
 
 
+_NONE = NotificationLevel.NONE
+_DETAILED = NotificationLevel.DETAILED
+"""The levels compared at every step (a global is read faster than an Enum's attribute)."""
 _STATIC = StaticNature()
 _UNASKED = object()
 """No answer of a configured policy is pending in this turn (``None`` is a valid proposal)."""
