@@ -387,8 +387,6 @@ class NSProcess:
                 flags, i = self._single_changes[name]
                 if not with_sizes:
                     return flags, nothing
-                if len(nothing) == 1:
-                    return flags, (size,)
                 return flags, nothing[:i] + (size,) + nothing[i + 1 :]
         truth = self.last_sizes()
         flags = tuple([1 if size > 0.0 else 0 for size in truth])

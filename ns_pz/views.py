@@ -112,7 +112,7 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             float(reward),
             bool(terminated),
             bool(truncated),
-            self._info() if self._ground_truth_info else {},
+            self._info(),
         )
 
     def render(self) -> Any:

@@ -60,7 +60,7 @@ class ContinuousScheduler(_WindowedScheduler):
 
     def __call__(self, t: int, rng: np.random.Generator) -> bool:
         """True on every step of the window."""
-        return t >= self.start and (self.end is None or t <= self.end)  # _active, inlined
+        return self._active(t)
 
 
 class DiscreteScheduler(Scheduler):
