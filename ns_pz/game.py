@@ -147,9 +147,12 @@ class NSGame(AECEnv):
         }
         self._rewarded = False
         self._scripted: tuple[np.ndarray, list, Any, int] | None = None
-        self._scripted_notice: tuple[Any, list[np.ndarray], list[list], int] | None = None
-        """The monitor policy's action handed out this turn: the object, its arrays, their
-        values then, and the step."""
+        """Nature's policy action handed out this turn: the array, its values then, the exact
+        proposal behind it, and the step."""
+        self._scripted_notice: tuple[Any, int, Any, Any, list, list] | None = None
+        """The monitor policy's action handed out this turn: the object, the step, and in dict
+        mode its two arrays and their values then (``None`` and empty lists in flags mode)."""
+        self._nature_sign = self._nature_reward.sign
         # Before the first reset: calls meet ResetNeeded, not missing attributes.
         self.agent_selection = NATURE
         self.rewards: dict[str, float] = {}
@@ -256,20 +259,17 @@ class NSGame(AECEnv):
         self._cumulative_rewards[agent] = 0.0
         if agent == DECISION:
             self._decision_turn(action)
-        else:
-            self._zero_rewards()
-            self.agent_selection = process.turn
-
-    def _zero_rewards(self) -> None:
+            return
         if self._rewarded:
             self.rewards = dict.fromkeys(AGENTS, 0.0)
             self._rewarded = False
+        self.agent_selection = process.turn
 
     def _decision_turn(self, action: Any) -> None:
         process = self._process
         reward, terminated, truncated = process.transition(action)
         reward = float(reward)
-        nature_reward = self._nature_reward.per_step(reward)
+        nature_reward = self._nature_sign * reward  # NatureReward.per_step, inlined
         if process.done:
             nature_reward += self._nature_reward.at_end(process)
         self.rewards = {NATURE: nature_reward, MONITOR: 0.0, DECISION: reward}
@@ -292,17 +292,20 @@ class NSGame(AECEnv):
         """
         scripted = self._scripted_notice
         if (
-            self._monitor_flags_only
-            or self._process.turn != MONITOR
-            or scripted is None
+            scripted is None
             or action is not scripted[0]
-            or scripted[3] != self._process.t
+            or scripted[2] is None  # flags mode
+            or scripted[1] != self._process.t
+            or self._process.turn != MONITOR
         ):
             return False
-        arrays = list(action.values())
-        return len(arrays) == len(scripted[1]) and all(
-            now is then and now.tolist() == values
-            for now, then, values in zip(arrays, scripted[1], scripted[2], strict=True)
+        _, _, flags, sizes, flag_values, size_values = scripted
+        return (
+            len(action) == 2
+            and action.get("env_change") is flags
+            and action.get("delta_change") is sizes
+            and flags.tolist() == flag_values
+            and sizes.tolist() == size_values
         )
 
     def _notification_of(self, action: Any) -> tuple[list, list]:
@@ -353,19 +356,24 @@ class NSGame(AECEnv):
             return delta
         if agent == MONITOR:
             flags, sizes = process.scripted_notification()
-            scripted = self._scripted_notice
-            if scripted is not None and scripted[3] == process.t:
-                return scripted[0]
-            notice: Any
+            handed_out = self._scripted_notice
+            if handed_out is not None and handed_out[1] == process.t:
+                return handed_out[0]
             if self._monitor_flags_only:
                 notice = np.array(flags, np.int64)
-                arrays = [notice]
-            else:
-                arrays = [np.array(flags, np.int8), np.array(sizes, np.float32)]
-                notice = {"env_change": arrays[0], "delta_change": arrays[1]}
+                self._scripted_notice = (notice, process.t, None, None, [], [])
+                return notice
+            flag_array, size_array = process.build.notification(flags, sizes, process.no_change)
             # Stepped unmodified, the exact notification behind it is played (as for nature).
-            self._scripted_notice = (notice, arrays, [a.tolist() for a in arrays], process.t)
-            return notice
+            self._scripted_notice = (
+                {"env_change": flag_array, "delta_change": size_array},
+                process.t,
+                flag_array,
+                size_array,
+                flag_array.tolist(),
+                size_array.tolist(),
+            )
+            return self._scripted_notice[0]
         raise ValueError(
             f"agent={agent!r} has no configured policy; allowed: {NATURE!r}, {MONITOR!r}"
         )

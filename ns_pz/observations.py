@@ -104,6 +104,13 @@ class ObservationBuilder:
             "relative_time": clock,
         }
 
+    def notification(self, flags: tuple, sizes: tuple, no_change: tuple) -> tuple:
+        """New ``env_change`` (int8) and ``delta_change`` (float32) arrays, as :meth:`agent`."""
+        return (
+            self._zero_flags.copy() if flags is no_change else self._flags_array(flags),
+            self._zero_sizes.copy() if sizes is no_change else self._sizes_array(sizes),
+        )
+
     def _sizes_array(self, sizes: tuple) -> np.ndarray:
         """A new float32 array of ``sizes`` (one parameter: the template copied and set)."""
         if len(sizes) == 1:

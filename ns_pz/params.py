@@ -27,6 +27,7 @@ import difflib
 import itertools
 import math
 import operator
+import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Self, cast
@@ -75,9 +76,16 @@ class ParamSpec:
     outcomes: tuple[str, ...] = ()
     size: int = field(init=False)
     """Number of floats the parameter takes in a flat vector."""
+    finite_range: tuple[float, float] = field(init=False, repr=False, compare=False)
+    """The least and greatest admissible finite float of a scalar: a float ``v`` is admissible
+    exactly when ``lo <= v <= hi`` (open bounds and infinities folded in; NaN fails)."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "size", len(self.outcomes) if self.kind == SIMPLEX else 1)
+        biggest = sys.float_info.max
+        low = math.nextafter(self.low, math.inf) if self.low_open else max(self.low, -biggest)
+        high = math.nextafter(self.high, -math.inf) if self.high_open else min(self.high, biggest)
+        object.__setattr__(self, "finite_range", (float(low), float(high)))
 
     @property
     def width(self) -> float:
@@ -141,7 +149,8 @@ class ParamSpec:
         """
         # Fast paths for values that are already admissible (NaN fails every comparison).
         if type(value) is float:
-            if self.kind == SCALAR and self.contains(value) and math.isfinite(value):
+            low, high = self.finite_range
+            if low <= value <= high and self.kind == SCALAR:
                 return value
         elif type(value) is tuple and len(value) == self.size and self.kind == SIMPLEX:
             if _on_simplex(value):
@@ -169,6 +178,9 @@ class ParamSpec:
         """Size of the change from ``a`` to ``b``: ``|a - b|``, or W1 (= TV) for a vector."""
         if self.kind == SCALAR:
             return abs(b - a)  # type: ignore[operator]
+        written_out = _TOTAL_VARIATIONS.get(self.size)
+        if written_out is not None:
+            return written_out(a, b)
         return 0.5 * sum(map(abs, map(operator.sub, b, a)))  # type: ignore[arg-type]
 
     def flat_bounds(self) -> tuple[list[float], list[float]]:
@@ -176,6 +188,25 @@ class ParamSpec:
         if self.kind == SIMPLEX:
             return [0.0] * self.size, [1.0] * self.size
         return [self.low], [self.high]
+
+
+def _written_out_total_variation(size: int) -> Callable[[Any, Any], float]:
+    """``0.5 * sum(|b_i - a_i|)`` for two vectors of ``size`` elements, one term at a time.
+
+    Summed left to right as ``sum`` does (on Python 3.11), in under half its time: the size of
+    every change nature makes to a slip vector.
+    """
+    a = ", ".join(f"a{i}" for i in range(size))
+    b = ", ".join(f"b{i}" for i in range(size))
+    terms = " + ".join(f"abs(b{i} - a{i})" for i in range(size))
+    namespace: dict[str, Any] = {}
+    source = f"def total_variation(a, b):\n    {a}, = a\n    {b}, = b\n    return 0.5 * ({terms})"
+    exec(source, namespace)  # noqa: S102 - generated from an int, nothing else
+    return namespace["total_variation"]  # type: ignore[no-any-return]
+
+
+_TOTAL_VARIATIONS = {size: _written_out_total_variation(size) for size in range(2, 9)}
+"""Written-out distances of probability vectors of 2 to 8 outcomes (larger ones loop)."""
 
 
 def _on_simplex(vector: tuple[float, ...]) -> bool:

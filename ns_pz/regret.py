@@ -66,11 +66,12 @@ class NatureReward:
             )
         self.mode = mode
         self.reference = reference
-        self._sign = {"zero_sum": -1.0, "cooperative": 1.0, "none": 0.0, "regret": -1.0}[mode]
+        self.sign = {"zero_sum": -1.0, "cooperative": 1.0, "none": 0.0, "regret": -1.0}[mode]
+        """Nature's reward per unit of the agent's, at every step (:meth:`per_step`)."""
 
     def per_step(self, reward: float) -> float:
-        """Nature's reward for a transition that paid the agent ``reward``."""
-        return self._sign * reward
+        """Nature's reward for a transition that paid the agent ``reward``: ``sign * reward``."""
+        return self.sign * reward
 
     def at_end(self, process: NSProcess) -> float:
         """Nature's extra reward when the episode ends (the reference's value for regret)."""

@@ -372,6 +372,31 @@ def test_the_monitor_policys_unmodified_action_sends_its_exact_notification(
         game.step(1)
 
 
+def test_the_monitor_policys_action_with_a_replaced_array_is_taken_as_it_is() -> None:
+    """A new array put in the handed-out dict is what is sent; handed-out arrays are fresh."""
+    nature = ScriptedNature({"masspole": IncrementUpdate(ContinuousScheduler(start=0), k=1e-3)})
+    game = ns_pz.make("ns_pz/CartPole-v0", nature=nature, notification="detailed")
+    game.reset(seed=0)
+    game.step(game.policy_action(NATURE))
+    quiet = game.policy_action(MONITOR)
+    quiet["env_change"][:] = 1  # edits the array handed out, not a template behind it
+    quiet["delta_change"][:] = 5.0
+    game.step(quiet)
+    assert game.process.notice == ((1,) * 6, (5.0,) * 6)
+    game.step(0)
+    game.step(game.policy_action(NATURE))
+    action = game.policy_action(MONITOR)
+    assert action["env_change"].tolist() == [0, 0, 1, 0, 0, 0]  # masspole, third field
+    assert action["delta_change"][2] > 0.0 and not any(np.delete(action["delta_change"], 2))
+    action["delta_change"] = np.zeros(6, np.float32)  # replaced, not edited in place
+    game.step(action)
+    assert game.process.notice == ((0, 0, 1, 0, 0, 0), (0.0,) * 6)
+    game.reset(seed=0)
+    game.step(game.policy_action(NATURE))
+    quiet = game.policy_action(MONITOR)  # the edits above reached no template
+    assert not quiet["env_change"].any() and not quiet["delta_change"].any()
+
+
 @pytest.mark.parametrize("env_id", ["ns_pz/MountainCarContinuous-v0", "ns_pz/InvertedPendulum-v0"])
 def test_the_monitors_observation_owns_its_arrays(env_id: str) -> None:
     """``last_action`` is neither the agent's array (which it may reuse) nor a shared template."""

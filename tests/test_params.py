@@ -157,6 +157,54 @@ def test_projection_refuses_what_has_no_nearest_value_and_survives_huge_inputs()
         slip.project("F", (math.inf, 0.0, 0.0))
 
 
+@pytest.mark.parametrize(
+    ("low", "high", "low_open", "high_open"),
+    [
+        (0.0, 1.0, False, False),
+        (0.0, math.inf, True, False),
+        (-math.inf, math.inf, False, False),
+        (0.0, 0.1, False, True),
+        (-math.inf, 5.0, True, True),
+        (1, 2, False, False),  # int bounds
+    ],
+)
+def test_project_keeps_exactly_the_admissible_finite_floats(low, high, low_open, high_open):
+    """project() returns a float as it is exactly when it is inside the bounds and finite."""
+    from ns_pz.params import ParamSpec
+
+    spec = ParamSpec("x", "scalar", 0.5, low, high, low_open, high_open)
+    edges = [low, high, -low, -high, 0.0, -0.0, 0.5, 1.5, 1e308, -1e308, 5e-324]
+    probes = [float(v) for v in edges if math.isfinite(v)]
+    probes += [math.nextafter(v, d) for v in probes for d in (-math.inf, math.inf)]
+    probes += [math.inf, -math.inf, math.nan]
+    for value in probes:
+        admissible = spec.contains(value) and math.isfinite(value)
+        lo, hi = spec.finite_range
+        assert (lo <= value <= hi) is admissible, value
+        if admissible:
+            assert spec.project("P", value) is value
+        elif math.isfinite(value):  # moved inside
+            assert spec.contains(spec.project("P", value))
+            assert spec.project("P", value) != value
+
+
+def test_total_variation_is_the_sum_of_the_differences_for_every_size():
+    """The written-out distance of small vectors equals 0.5 * sum|b - a| summed left to right."""
+    from ns_pz.params import ParamSpec
+
+    rng = np.random.default_rng(3)
+    for size in range(2, 12):
+        outcomes = tuple(str(i) for i in range(size))
+        spec = ParamSpec("slip", "simplex", (1.0,) + (0.0,) * (size - 1), outcomes=outcomes)
+        for _ in range(300):
+            a = tuple(rng.dirichlet(np.ones(size)).tolist())
+            b = tuple(rng.dirichlet(np.ones(size) * rng.uniform(0.01, 5)).tolist())
+            total = 0.0
+            for p, q in zip(a, b, strict=True):
+                total += abs(q - p)
+            assert spec.distance(a, b) == 0.5 * total
+
+
 def test_theta_unpickled_in_a_fresh_process_works_on_the_change_path(tmp_path):
     """A θ that arrives pickled (e.g. in a worker) can be projected and evolved at once."""
     import pickle

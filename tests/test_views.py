@@ -163,7 +163,7 @@ def test_bad_calls_raise_before_anything_changes():
     assert (env._process.t, env._process.state, env.ground_truth()) == (t, state, truth)
 
 
-@pytest.mark.parametrize("action", [4, -1, 1.5, "left", None, np.array([1, 2])])
+@pytest.mark.parametrize("action", [4, -1, 1.5, "left", None, np.array([1, 2]), True])
 def test_actions_outside_the_space_are_refused(action):
     """An action outside the action space raises ValueError naming it; nothing moves."""
     env = ns_pz.make_gym("ns_pz/FrozenLake-v0")
@@ -172,6 +172,19 @@ def test_actions_outside_the_space_are_refused(action):
         env.step(action)
     assert env._process.t == 0
     env.step(np.int64(2))  # numpy integers are fine
+
+
+def test_int_actions_are_checked_against_the_family_s_current_action_space():
+    """The ints a Discrete space holds (with its start) follow a space replaced after use."""
+    from gymnasium import spaces
+
+    family = ns_pz.make_gym("ns_pz/FrozenLake-v0").family
+    assert family.check_action(3) == 3
+    family.action_space = spaces.Discrete(2, start=5)
+    assert family.check_action(6) == 6 and family.check_action(np.int64(5)) == 5
+    for bad in (3, 4, 7):
+        with pytest.raises(ValueError, match=rf"action={bad} is outside the action space"):
+            family.check_action(bad)
 
 
 def test_set_params_validates_strictly():

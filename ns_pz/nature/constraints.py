@@ -160,7 +160,7 @@ def admit(
     by_name = layout.by_name
     granted: dict[str, Value] = {}
     sizes: dict[str, float] = {}
-    if constraints.unconstrained:
+    if constraints.unconstrained:  # nature's every change: the short path
         for name, raw in proposal.items():
             spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
             new = spec.project(owner, raw)
@@ -169,8 +169,9 @@ def admit(
                 granted[name] = new
                 if sizes_wanted:
                     sizes[name] = spec.distance(old, new)
-        new_theta = layout.evolve(theta, granted) if granted else theta
-        return new_theta, (sizes if sizes_wanted else None)
+        if not granted:
+            return theta, (sizes if sizes_wanted else None)
+        return layout.evolve(theta, granted), (sizes if sizes_wanted else None)
     for name, raw in proposal.items():
         spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
         old = getattr(theta, name)
