@@ -138,10 +138,15 @@ class NSProcess:
         self.param_names = family.params_cls.names()
         self.no_change: tuple[float, ...] = (0.0,) * len(self.param_names)
         self._single_changes = {
-            name: (tuple(1 if other == name else 0 for other in self.param_names), i)
+            name: (
+                tuple(1 if other == name else 0 for other in self.param_names),
+                self.no_change[:i],
+                self.no_change[i + 1 :],
+            )
             for i, name in enumerate(self.param_names)
         }
-        """Per parameter: the flags of a change of it alone, and its position."""
+        """Per parameter: the flags of a change of it alone, and the zero sizes before and
+        after its own."""
         self.build = ObservationBuilder(family)
         self.env_rng: np.random.Generator | None = None
         self.nature_rng: np.random.Generator | None = None
@@ -384,10 +389,10 @@ class NSProcess:
             for name, size in sizes.items():
                 if not size > 0.0:
                     return nothing, nothing
-                flags, i = self._single_changes[name]
+                flags, before, after = self._single_changes[name]
                 if not with_sizes:
                     return flags, nothing
-                return flags, nothing[:i] + (size,) + nothing[i + 1 :]
+                return flags, before + (size,) + after
         truth = self.last_sizes()
         flags = tuple([1 if size > 0.0 else 0 for size in truth])
         if 1 not in flags:
@@ -505,6 +510,12 @@ class NSProcess:
         Returns:
             The sum of the agent's rewards over the transitions played, and their number.
         """
+        if seat is DECISION and self.turn is NATURE and self._pending is None and not self.done:
+            # What every step of the view asks: nature's turn and the monitor's, unrolled.
+            self._grant(self.nature.act(self))
+            self.notice = self._monitor_says()
+            self.turn = DECISION
+            return 0.0, 0
         total, count = 0.0, 0
         while not self.done and self.turn != seat:
             turn = self.turn

@@ -223,7 +223,7 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         self, action: Any
     ) -> tuple[dict[str, Any], SupportsFloat | Reward, bool, bool, dict[str, Any]]:
         """Parameters change for this step (if scheduled), then the env steps under them."""
-        core = self.core
+        core: CompatCore = self.env  # type: ignore[assignment]  # self.core, without the call
         reward, terminated, truncated = core._advance(action)
         process = core.process
         truth_flags, truth_deltas = self._zeros_int, self._zeros_float

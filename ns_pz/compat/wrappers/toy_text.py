@@ -65,6 +65,9 @@ class _GridWrapper(NSWrapper):
         first = self.process.theta0
         self.initial_prob_dist = list(getattr(first, first.names()[0]))
         self.modified_rewards = modified_rewards
+        names = self.binding.names
+        self._slip_field = next(iter(names.values())) if len(names) == 1 else None
+        """The θ field of the slip vector, unless the vector is split (the Bridge's halves)."""
 
     def _initial_slip(self) -> tuple[float, ...]:
         """θ_0's slip vector: ``initial_prob_dist``, or the class default when it is None."""
@@ -85,9 +88,9 @@ class _GridWrapper(NSWrapper):
     @property
     def transition_prob(self) -> list[float] | dict[str, list[float]]:
         """The slip vector in force (split Bridge: ``{"P_left": ..., "P_right": ...}``)."""
-        names = self.binding.names
-        if len(names) == 1:  # read at every step (info): straight from θ
-            return list(getattr(self.process.last_theta, next(iter(names.values()))))
+        field = self._slip_field
+        if field is not None:  # read at every step (info): straight from θ
+            return list(getattr(self.core.process.last_theta, field))
         return self.get_params()
 
     @property
