@@ -441,6 +441,15 @@ class NSProcess:
             self.change_values.append(theta)
             self._step_sizes = sizes
 
+    @property
+    def last_change_sizes(self) -> Mapping[str, float] | None:
+        """The size of each parameter's change behind the last transition, by name.
+
+        As nature's change recorded them (every changed parameter); ``None`` if there was no
+        change or its sizes were not computed (level ``none``, a change by hand).
+        """
+        return None if self.last_change is None else self._last_sizes
+
     def last_sizes(self) -> tuple[float, ...]:
         """True size of each parameter's change behind the last transition (zeros if none)."""
         if self.last_change is None:

@@ -396,6 +396,37 @@ def test_ground_truth_info_has_nsgym_keys_and_types():
     assert info[wrappers.GROUND_TRUTH_CHANGE] == {"masspole": 1}
 
 
+@pytest.mark.parametrize(("change", "delta"), [(False, False), (True, False), (True, True)])
+def test_ground_truth_sizes_are_the_total_variation_at_every_level(change, delta):
+    """Recorded by nature's change (basic, detailed) or computed (none): the same TV size."""
+    from ns_pz.envs.cliff_walking import CliffWalkingParams
+
+    tunable = {"P": DistributionDecrementUpdate(ContinuousScheduler(), k=0.01)}
+    cliff = NSCliffWalkingWrapper(
+        gym.make("CliffWalking-v1"),
+        tunable,
+        change_notification=change,
+        delta_change_notification=delta,
+        initial_prob_dist=[1.0, 0.0, 0.0, 0.0],
+    )
+    cliff.reset(seed=0)
+    process = cliff.process
+    for _ in range(5):
+        _, _, _, _, info = cliff.step(0)
+        before, after = process.last_change
+        recorded = process.last_change_sizes
+        assert (recorded is None) is (not change)  # level none computes no sizes
+        size = CliffWalkingParams.spec("slip").distance(before.slip, after.slip)
+        assert info[wrappers.GROUND_TRUTH_DELTA]["P"] == size > 0.0
+        assert info["transition_prob"] == list(process.last_theta.slip)
+    process.set_params({"slip": (0.5, 0.5, 0.0, 0.0)})  # by hand, after nature's change
+    info = cliff.step(0)[4]
+    assert process.last_change_sizes is None  # two changes in one step: sizes not recorded
+    before, after = process.last_change
+    size = CliffWalkingParams.spec("slip").distance(before.slip, after.slip)
+    assert info[wrappers.GROUND_TRUTH_DELTA]["P"] == size
+
+
 def theta_path(env, seed, steps=15):
     """Parameters after each step of one episode (action 0 throughout)."""
     env.reset(seed=seed)

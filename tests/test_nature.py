@@ -339,3 +339,4 @@ def test_action_of_is_the_clipped_scaled_change_of_the_flat_theta(
         action = interface.action_of(theta, proposal)
         assert action.dtype == space.dtype
         assert action.tobytes() == expected.astype(space.dtype).tobytes()
+        action[:] = 7.0  # the caller's own array: no later action starts from it

@@ -37,6 +37,7 @@ Zero means "no change" in both. The game then projects the proposal onto the all
 from __future__ import annotations
 
 import math
+from operator import sub, truediv
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -162,12 +163,9 @@ class NatureInterface:
         # Built as one list of floats, then one array: the same float64 arithmetic as array
         # operations, rounded to float32 once, at a fraction of the cost for a few parameters.
         row = [process.t if self._limit is None else process.t / self._limit]
-        row += [
-            (value - start) / scale
-            for value, start, scale in zip(  # equal lengths by construction
-                process.theta.flat_values(), self._theta0_values, self._scales, strict=False
-            )
-        ]
+        # (θ - θ_0) / scale element by element, looped in C (equal lengths by construction).
+        offsets = map(sub, process.theta.flat_values(), self._theta0_values)
+        row += map(truediv, offsets, self._scales)
         constraints = self._constraints
         if constraints.has_budget:
             row += budget_fractions_left(constraints, self._params_cls, process.spent)
@@ -240,9 +238,11 @@ class NatureInterface:
             theta: The θ in force.
             proposal: New values by parameter name, or ``None``.
         """
+        # Zeros (inside the action space, scaled or not), then the moved elements one by one:
+        # a NumPy element assignment rounds a float as building the array from a list would.
+        delta = self._no_action.copy()
         if not proposal:
-            return self._no_action.copy()
-        delta = [0.0] * len(self._scales)  # 0 is inside the action space, scaled or not
+            return delta
         slots = self._slots
         for name, value in proposal.items():
             slot = slots.get(name)
@@ -261,7 +261,7 @@ class NatureInterface:
                 )
             for i, (p, c) in enumerate(zip(value, current, strict=True), start):
                 delta[i] = self._in_space(float(p) - c, i)
-        return np.array(delta, self.action_space.dtype)
+        return delta
 
     def _in_space(self, change: float, i: int) -> float:
         """Element ``i`` of the action for a change of θ's flat element ``i``.

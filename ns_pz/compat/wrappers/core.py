@@ -230,14 +230,17 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         change = process.last_change
         if change is not None:
             before, after = change
+            known = process.last_change_sizes  # a vector's size, when nature's change had it
             truth_flags, truth_deltas = dict(truth_flags), dict(truth_deltas)
             for name, native, vector_distance in self._fields:
                 old, new = getattr(before, native), getattr(after, native)
                 if old != new:
                     truth_flags[name] = 1
-                    truth_deltas[name] = (
-                        new - old if vector_distance is None else vector_distance(old, new)
-                    )
+                    if vector_distance is None:
+                        truth_deltas[name] = new - old
+                    else:
+                        size = known.get(native) if known else None
+                        truth_deltas[name] = vector_distance(old, new) if size is None else size
         shown_flags, shown_deltas = self._zeros_int, self._zeros_float
         if self.change_notification and not self.frozen:
             shown_flags = truth_flags

@@ -90,7 +90,7 @@ class _GridWrapper(NSWrapper):
         """The slip vector in force (split Bridge: ``{"P_left": ..., "P_right": ...}``)."""
         field = self._slip_field
         if field is not None:  # read at every step (info): straight from θ
-            return list(getattr(self.core.process.last_theta, field))
+            return list(getattr(self.env.process.last_theta, field))  # type: ignore[attr-defined]
         return self.get_params()
 
     @property
@@ -102,9 +102,9 @@ class _GridWrapper(NSWrapper):
         self, action: Any
     ) -> tuple[dict[str, Any], SupportsFloat | Reward, bool, bool, dict[str, Any]]:
         """As :meth:`NSWrapper.step`; ``info["transition_prob"]`` is the slip vector in force."""
-        obs, reward, terminated, truncated, info = super().step(action)
-        info["transition_prob"] = self.transition_prob
-        return obs, reward, terminated, truncated, info
+        result = super().step(action)
+        result[4]["transition_prob"] = self.transition_prob
+        return result
 
 
 class NSFrozenLakeWrapper(_GridWrapper):
