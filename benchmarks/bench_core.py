@@ -15,6 +15,9 @@ in an extra case), it times, per transition:
 * ``AEC cycle``: the game's three turns (nature with a Δθ at every step, monitor, agent) given
   precomputed actions, and the same cycle with ``observe`` called for every agent before it acts,
   as a loop of learning agents would;
+* ``nature seat``: the game from nature's seat as a learner trains it
+  (``single_agent(id, learner="nature")``, random ``Box(-1, 1)`` actions; the decision agent
+  plays the same actions as the other cases);
 * with ``ns_gym`` importable, NS-Gym's wrappers on the same schedules.
 
 Resets are not timed. Each round times every case once, in a row; a ratio is taken within each
@@ -47,6 +50,7 @@ from ns_pz.nature import (
     IncrementUpdate,
     ScriptedNature,
 )
+from ns_pz.seats import single_agent
 
 try:  # NS-Gym, for a side-by-side measurement when it is installed
     import ns_gym.schedulers as ng_schedulers
@@ -259,6 +263,7 @@ def cases(name: str) -> dict[str, Runner]:
     runners["game: policy_action + observe, detailed"] = lambda a: time_game(
         user_game, a, 0, observe=True, policies=True
     )
+    runners["nature seat: learner step, normalized"] = nature_seat_runner(ns_id, limit)
     if bench.mass:
         masses = scripted_param(bench, bench.mass, ContinuousScheduler(start=0))
         view_mass = gym.make(ns_id, nature=masses, **limit).unwrapped
@@ -277,6 +282,36 @@ def cases(name: str) -> dict[str, Runner]:
 LEVELS = ("none", "basic", "detailed")
 NOTIFY = {"none": (False, False), "basic": (True, False), "detailed": (True, True)}
 """NS-Gym's (change_notification, delta_change_notification) for each level."""
+
+
+def nature_seat_runner(ns_id: str, limit: dict) -> Runner:
+    """Nature as a learner sees the game (``single_agent(..., learner="nature")``).
+
+    Each step is nature's turn with a random ``Box(-1, 1)`` action (a fixed draw per step, zero
+    for about a third of the parameters, as a policy's output might be), then the oracle
+    monitor's and the decision agent's turns (the same actions as the other cases, in order)
+    and nature's next observation.
+    """
+    decisions: list = []
+    position = [0]
+
+    def decide(observation: object) -> object:
+        action = decisions[position[0] % len(decisions)]
+        position[0] += 1
+        return action
+
+    seat = single_agent(ns_id, learner="nature", policies={"agent": decide}, **limit)
+    space = seat.action_space
+    rng = np.random.default_rng(1)
+    draws = rng.uniform(-1.0, 1.0, (20_000, *space.shape)) * (rng.random(space.shape) > 1 / 3)
+    natures = list(draws.astype(space.dtype))
+
+    def run(actions: list) -> float:
+        decisions[:] = actions
+        position[0] = 0
+        return time_gym(seat, (natures * (len(actions) // len(natures) + 1))[: len(actions)], 0)
+
+    return run
 
 
 def _timer(timer: Callable[..., float], env: object) -> Runner:

@@ -318,6 +318,28 @@ def test_bad_seeds_are_refused_clearly(seed, error, match):
         ns_pz.make_gym("ns_pz/FrozenLake-v0").reset(seed=seed)
 
 
+@pytest.mark.parametrize("position", range(6))
+def test_normalized_nature_actions_are_checked_element_by_element(position):
+    """Every element must lie in [-1, 1] (NaN and ±inf refused); the bounds themselves pass."""
+    game = ns_pz.make("ns_pz/CartPole-v0", nature_action="normalized")
+    game.reset(seed=0)
+    allowance = game.process.nature_interface("normalized").allowance
+    above = float(np.nextafter(np.float32(1.0), np.float32(2.0)))
+    for bad in (np.nan, np.inf, -np.inf, above, -above):
+        action = np.zeros(6, np.float32)
+        action[position] = bad
+        with pytest.raises(ValueError, match="outside the action space"):
+            game.step(action)
+    action = [0.0] * 6  # a list is fine
+    action[position] = -1.0
+    theta = game.process.theta
+    game.step(action)
+    name = theta.names()[position]
+    expected = getattr(theta, name) - float(allowance[position])
+    assert getattr(game.process.theta, name) == expected
+    assert type(getattr(game.process.theta, name)) is float
+
+
 @pytest.mark.parametrize(
     "action",
     [np.zeros(6, complex), np.zeros(6, bool), [True] + [False] * 5, [0.0] * 5 + [1j]],

@@ -131,6 +131,7 @@ class NatureInterface:
         self._theta0: Params | None = None
         self._theta0_values: list[float] = []
         self._scales = self._offset_scale.tolist()
+        self._allowances = allowance.tolist()
         self._lows = self._action_low.tolist()
         self._highs = self._action_high.tolist()
         self._no_action = np.zeros(len(width), self.action_space.dtype)
@@ -212,23 +213,24 @@ class NatureInterface:
         return proposal
 
     def _normalized_proposal(self, values: list[float], theta: Params) -> dict[str, Any]:
-        allowance = self.allowance
+        allowance = self._allowances
         proposal: dict[str, Any] = {}
         for spec, start, stop in self._layout:
+            if spec.kind != SIMPLEX:  # a scalar: one element, no slice needed
+                if values[start]:
+                    value = getattr(theta, spec.name)
+                    proposal[spec.name] = value + allowance[start] * values[start]
+                continue
             chunk = values[start:stop]
             if not any(chunk):
                 continue
-            value = getattr(theta, spec.name)
-            if spec.kind == SIMPLEX:
-                mean = sum(chunk) / len(chunk)
-                centred = [c - mean for c in chunk]
-                shrink = max(0.5 * sum(map(abs, centred)), 1.0)
-                step = allowance[start] / shrink
-                proposal[spec.name] = tuple(
-                    [p + step * c for p, c in zip(value, centred, strict=True)]
-                )
-            else:
-                proposal[spec.name] = value + allowance[start] * chunk[0]
+            mean = sum(chunk) / len(chunk)
+            centred = [c - mean for c in chunk]
+            shrink = max(0.5 * sum(map(abs, centred)), 1.0)
+            step = allowance[start] / shrink
+            proposal[spec.name] = tuple(
+                [p + step * c for p, c in zip(getattr(theta, spec.name), centred, strict=True)]
+            )
         return proposal
 
     def action_of(self, theta: Params, proposal: Any) -> np.ndarray:
@@ -276,20 +278,25 @@ class NatureInterface:
         return low if change < low else high if change > high else change
 
     def _checked(self, action: Any) -> list[float]:
+        """``action`` as a list of Python numbers, each inside the action space's bounds.
+
+        Compared with the bounds as exact doubles, as NumPy compares the arrays (a float32 value
+        or bound is exact as a double); NaN fails every comparison.
+        """
         space = self.action_space
-        if not (isinstance(action, np.ndarray) and action.dtype.kind in "fiu"):
-            if isinstance(action, (list, tuple)) and all(
-                type(x) in (int, float) or isinstance(x, (np.floating, np.integer)) for x in action
-            ):
-                action = np.asarray(action, np.float64)
-            else:
-                raise ValueError(
-                    f"nature action={action!r} must be a real vector in the action space {space}"
-                )
-        values = action.ravel().tolist() if action.ndim == 1 else None
-        if values is None or len(values) != space.shape[0]:
+        if isinstance(action, np.ndarray) and action.dtype.kind in "fiu":
+            values = action.tolist() if action.ndim == 1 else None
+        elif isinstance(action, (list, tuple)) and all(
+            type(x) in (int, float) or isinstance(x, (np.floating, np.integer)) for x in action
+        ):
+            values = np.asarray(action, np.float64).tolist()
+        else:
+            raise ValueError(
+                f"nature action={action!r} must be a real vector in the action space {space}"
+            )
+        if values is None or len(values) != len(self._lows):
             raise ValueError(f"nature action={action!r} is outside the action space {space}")
-        total = sum(values)
-        if not (total == total and np.all(space.low <= action) and np.all(action <= space.high)):
-            raise ValueError(f"nature action={action!r} is outside the action space {space}")
+        for value, low, high in zip(values, self._lows, self._highs, strict=False):
+            if not low <= value <= high:
+                raise ValueError(f"nature action={action!r} is outside the action space {space}")
         return values
