@@ -15,9 +15,9 @@ in an extra case), it times, per transition:
 * ``AEC cycle``: the game's three turns (nature with a Δθ at every step, monitor, agent) given
   precomputed actions, and the same cycle with ``observe`` called for every agent before it acts,
   as a loop of learning agents would;
-* ``nature seat``: the game from nature's seat as a learner trains it
-  (``single_agent(id, learner="nature")``, random ``Box(-1, 1)`` actions; the decision agent
-  plays the same actions as the other cases);
+* ``nature seat`` / ``monitor seat``: the game from nature's or the monitor's seat as a
+  learner trains it (``single_agent(id, learner)``, random actions; the decision agent plays
+  the same actions as the other cases);
 * with ``ns_gym`` importable, NS-Gym's wrappers on the same schedules.
 
 Resets are not timed. Each round times every case once, in a row; a ratio is taken within each
@@ -263,7 +263,8 @@ def cases(name: str) -> dict[str, Runner]:
     runners["game: policy_action + observe, detailed"] = lambda a: time_game(
         user_game, a, 0, observe=True, policies=True
     )
-    runners["nature seat: learner step, normalized"] = nature_seat_runner(ns_id, limit)
+    runners["nature seat: learner step, normalized"] = seat_runner(ns_id, ns_pz.NATURE, limit)
+    runners["monitor seat: learner step, flags"] = seat_runner(ns_id, ns_pz.MONITOR, limit)
     if bench.mass:
         masses = scripted_param(bench, bench.mass, ContinuousScheduler(start=0))
         view_mass = gym.make(ns_id, nature=masses, **limit).unwrapped
@@ -284,13 +285,14 @@ NOTIFY = {"none": (False, False), "basic": (True, False), "detailed": (True, Tru
 """NS-Gym's (change_notification, delta_change_notification) for each level."""
 
 
-def nature_seat_runner(ns_id: str, limit: dict) -> Runner:
-    """Nature as a learner sees the game (``single_agent(..., learner="nature")``).
+def seat_runner(ns_id: str, learner: str, limit: dict) -> Runner:
+    """Nature or the monitor as a learner sees the game (``single_agent(id, learner)``).
 
-    Each step is nature's turn with a random ``Box(-1, 1)`` action (a fixed draw per step, zero
-    for about a third of the parameters, as a policy's output might be), then the oracle
-    monitor's and the decision agent's turns (the same actions as the other cases, in order)
-    and nature's next observation.
+    Each step is the learner's turn with a random action (nature: ``Box(-1, 1)``, zero for about
+    a third of the parameters, as a policy's output might be; monitor: random 0/1 flags, paid
+    by the detection reward), then the other seats' turns (scripted nature or oracle monitor;
+    the decision agent plays the same actions as the other cases, in order) and the learner's
+    next observation.
     """
     decisions: list = []
     position = [0]
@@ -300,16 +302,20 @@ def nature_seat_runner(ns_id: str, limit: dict) -> Runner:
         position[0] += 1
         return action
 
-    seat = single_agent(ns_id, learner="nature", policies={"agent": decide}, **limit)
-    space = seat.action_space
+    reward = {"monitor_reward": "detection"} if learner == ns_pz.MONITOR else {}
+    seat = single_agent(ns_id, learner=learner, policies={"agent": decide}, **reward, **limit)
     rng = np.random.default_rng(1)
-    draws = rng.uniform(-1.0, 1.0, (20_000, *space.shape)) * (rng.random(space.shape) > 1 / 3)
-    natures = list(draws.astype(space.dtype))
+    if learner == ns_pz.NATURE:
+        shape = seat.action_space.shape
+        draws = rng.uniform(-1.0, 1.0, (20_000, *shape)) * (rng.random(shape) > 1 / 3)
+        moves = list(draws.astype(seat.action_space.dtype))
+    else:
+        moves = list(rng.integers(0, 2, (20_000, *seat.action_space.shape)))
 
     def run(actions: list) -> float:
         decisions[:] = actions
         position[0] = 0
-        return time_gym(seat, (natures * (len(actions) // len(natures) + 1))[: len(actions)], 0)
+        return time_gym(seat, (moves * (len(actions) // len(moves) + 1))[: len(actions)], 0)
 
     return run
 

@@ -20,11 +20,10 @@ from collections.abc import Callable, Mapping
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
-import numpy as np
 from gymnasium import spaces
 
 from ns_pz.monitor.learned import PolicyMonitor
-from ns_pz.monitor.monitors import Monitor
+from ns_pz.monitor.monitors import Monitor, as_flags
 from ns_pz.monitor.scoring import detection_reward
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
@@ -286,7 +285,7 @@ def _as_monitor(policy: Any, deterministic: bool) -> Monitor:
 
 
 def _flags_of(action: Any, count: int) -> tuple[int, ...]:
-    flags = np.asarray(action)
-    if flags.shape != (count,) or flags.dtype.kind not in "iub" or not np.isin(flags, (0, 1)).all():
+    flags = as_flags(action, count, kinds="iub")
+    if flags is None:
         raise ValueError(f"monitor action={action!r} must be {count} flags of 0/1")
-    return tuple(int(f) for f in flags)
+    return flags

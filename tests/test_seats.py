@@ -198,6 +198,33 @@ def test_monitor_seat_pays_the_given_reward_and_its_flags_reach_the_agent():
     assert obs["env_change"].tolist() == [1]
 
 
+@pytest.mark.parametrize(
+    "flags",
+    [[2, 0, 0, 0, 0, 0], [1, 0, 0, 0, 0], [-1, 0, 0, 0, 0, 0], np.ones(6) * 0.5, np.ones(6), "1"],
+)
+def test_monitor_flags_must_be_zeros_and_ones(flags):
+    """The monitor seat takes integer or bool 0/1 flags, one per parameter.
+
+    PolicyMonitor also takes floats equal to 0 or 1.
+    """
+    env = ns_pz.single_agent(
+        "ns_pz/CartPole-v0", "monitor", {DECISION: lambda obs: 0}, monitor_reward="detection"
+    )
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="must be 6 flags of 0/1"):
+        env.step(flags)
+    env.step(np.array([True, False, True, False, False, False]))
+    view = ns_pz.make_gym(
+        "ns_pz/CartPole-v0", monitor=PolicyMonitor(lambda obs: flags), notification="basic"
+    )
+    if isinstance(flags, np.ndarray) and (flags == 1.0).all():
+        view.reset(seed=0)
+        assert view.step(0)[0]["env_change"].tolist() == [1] * 6
+    else:
+        with pytest.raises(ValueError, match="must give 6 flags of 0/1"):
+            view.reset(seed=0)
+
+
 def test_seeds_reproduce_every_seat():
     """Same seed, same actions: same observations and ground truth (the agent seat too)."""
 

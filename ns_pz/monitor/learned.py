@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from ns_pz.family import EnvFamily
-from ns_pz.monitor.monitors import Flags, Monitor, Sizes
+from ns_pz.monitor.monitors import Flags, Monitor, Sizes, as_flags
 from ns_pz.params import Params
 from ns_pz.seat_policies import call_policy, check_policy
 
@@ -47,12 +47,13 @@ class PolicyMonitor(Monitor):
         Raises:
             ValueError: The policy's answer is not one 0/1 flag per parameter.
         """
-        flags = np.asarray(call_policy(self.policy, observation, deterministic=self.deterministic))
-        if flags.shape != (self._count,) or not np.isin(flags, (0, 1)).all():
+        answer = call_policy(self.policy, observation, deterministic=self.deterministic)
+        flags = as_flags(answer, self._count)
+        if flags is None:
             raise ValueError(
-                f"the monitor policy answered {flags!r}; it must give {self._count} flags of 0/1"
+                f"the monitor policy answered {answer!r}; it must give {self._count} flags of 0/1"
             )
-        return tuple(int(f) for f in flags), (0.0,) * self._count
+        return flags, (0.0,) * self._count
 
     def __repr__(self) -> str:
         return f"PolicyMonitor({self.policy!r})"

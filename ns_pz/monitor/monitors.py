@@ -157,3 +157,18 @@ def has_transition(observation: dict[str, Any] | None) -> bool:
 def silence(count: int) -> tuple[Flags, Sizes]:
     """The notification "no change" for ``count`` parameters."""
     return (0,) * count, (0.0,) * count
+
+
+def as_flags(value: Any, count: int, kinds: str = "iubf") -> Flags | None:
+    """``value`` as ``count`` flags (Python ints, each 0 or 1), or ``None`` if it is not that.
+
+    ``kinds``: the NumPy dtype kinds accepted (default: integers, bools and floats equal to 0
+    or 1). Checked on a list of Python numbers: ``np.isin`` took 16 µs for six flags.
+    """
+    array = np.asarray(value)
+    if array.shape != (count,) or array.dtype.kind not in kinds:
+        return None
+    values = array.tolist()
+    if not set(values) <= {0, 1}:  # True, 1.0 and 1 are all 1; NaN is none of them
+        return None
+    return tuple(map(int, values))
