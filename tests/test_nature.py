@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from gymnasium import spaces
 from ns_pz.envs.cartpole import CartPoleParams
 from ns_pz.envs.frozen_lake import FrozenLakeParams
 
@@ -340,3 +341,28 @@ def test_action_of_is_the_clipped_scaled_change_of_the_flat_theta(
         assert action.dtype == space.dtype
         assert action.tobytes() == expected.astype(space.dtype).tobytes()
         action[:] = 7.0  # the caller's own array: no later action starts from it
+
+
+@pytest.mark.parametrize(
+    "space",
+    [
+        spaces.Box(-2.0, 2.0, (4,), np.float32),
+        spaces.Box(-1e9, 1e9, (2, 3), np.float64),
+        spaces.Box(0, 10, (3,), np.int64),
+        spaces.Discrete(5, start=-2),
+        spaces.MultiDiscrete([3, 2]),
+    ],
+    ids=["box32", "box64-2d", "box-int", "discrete", "multidiscrete"],
+)
+def test_nature_sees_states_and_actions_exactly_as_gymnasium_flattens_them(space):
+    """The values behind nature's view of the agent's state and action: ``spaces.flatten``."""
+    from ns_pz.nature.interface import _flat_values_of
+
+    space.seed(0)
+    flat = _flat_values_of(space)
+    for _ in range(50):
+        x = space.sample()
+        expected = spaces.flatten(space, x)
+        got = flat(x)
+        assert np.array(got, np.float32).tobytes() == expected.astype(np.float32).tobytes()
+        assert len(got) == spaces.flatdim(space)

@@ -37,6 +37,7 @@ Zero means "no change" in both. The game then projects the proposal onto the all
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from operator import sub, truediv
 from typing import TYPE_CHECKING, Any
 
@@ -121,6 +122,8 @@ class NatureInterface:
             self.action_space = spaces.Box(-width, width, dtype=np.float64)  # type: ignore[arg-type]
         self._state_space = family.observation_space if observes_state else None
         self._action_of_agent = family.action_space if observes_state else None
+        self._flat_state = _flat_values_of(family.observation_space)
+        self._flat_action = _flat_values_of(family.action_space)
         self.observation_space = self._observation_space(width)
         self._slots = {spec.name: (start, stop) for spec, start, stop in self._layout}
         self._action_low = np.asarray(self.action_space.low, np.float64)
@@ -135,6 +138,9 @@ class NatureInterface:
         self._lows = self._action_low.tolist()
         self._highs = self._action_high.tolist()
         self._no_action = np.zeros(len(width), self.action_space.dtype)
+        self._no_last_action: list[float] = []
+        if observes_state:
+            self._no_last_action = [0.0] * spaces.flatdim(family.action_space)
 
     # -- observation ------------------------------------------------------------------------
     def _observation_space(self, width: np.ndarray) -> spaces.Box:
@@ -173,21 +179,11 @@ class NatureInterface:
         else:
             row += self._no_budgets
         row.append(float(constraints.has_budget))
-        if self._state_space is None:
-            return np.array(row, np.float32)
-        out = np.empty(self.observation_space.shape, np.float32)
-        end = len(row)
-        out[:end] = row
-        state = np.asarray(spaces.flatten(self._state_space, process.family.observe(process.state)))
-        stop = end + state.size
-        out[end:stop] = state
-        assert self._action_of_agent is not None  # set together with _state_space
-        last = process.last_action
-        if last is None:
-            out[stop:] = 0.0
-        else:
-            out[stop:] = np.asarray(spaces.flatten(self._action_of_agent, last))
-        return out
+        if self._state_space is not None:  # then the agent's action space is known too
+            row += self._flat_state(process.family.observe(process.state))
+            last = process.last_action
+            row += self._no_last_action if last is None else self._flat_action(last)
+        return np.array(row, np.float32)
 
     # -- actions ----------------------------------------------------------------------------
     def proposal(self, action: Any, theta: Params) -> dict[str, Any] | None:
@@ -300,3 +296,28 @@ class NatureInterface:
             if not low <= value <= high:
                 raise ValueError(f"nature action={action!r} is outside the action space {space}")
         return values
+
+
+def _flat_values_of(space: spaces.Space[Any]) -> Callable[[Any], list[Any]]:
+    """A function giving ``spaces.flatten(space, x)`` as a list of Python numbers.
+
+    Boxes and ``Discrete`` (one-hot) directly, at a fraction of ``flatten``'s dispatch; other
+    spaces through ``flatten``.
+    """
+    if isinstance(space, spaces.Box):
+        dtype = space.dtype
+
+        def box_values(x: Any) -> list[Any]:
+            return np.asarray(x, dtype).ravel().tolist()
+
+        return box_values
+    if isinstance(space, spaces.Discrete):
+        size, start = int(space.n), int(space.start)
+
+        def one_hot(x: Any) -> list[Any]:
+            values = [0] * size
+            values[int(x) - start] = 1
+            return values
+
+        return one_hot
+    return lambda x: np.asarray(spaces.flatten(space, x)).ravel().tolist()
