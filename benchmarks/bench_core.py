@@ -307,7 +307,7 @@ def seat_runner(ns_id: str, learner: str, limit: dict) -> Runner:
     rng = np.random.default_rng(1)
     if learner == ns_pz.NATURE:
         shape = seat.action_space.shape
-        draws = rng.uniform(-1.0, 1.0, (20_000, *shape)) * (rng.random(shape) > 1 / 3)
+        draws = rng.uniform(-1.0, 1.0, (20_000, *shape)) * (rng.random((20_000, *shape)) > 1 / 3)
         moves = list(draws.astype(seat.action_space.dtype))
     else:
         moves = list(rng.integers(0, 2, (20_000, *seat.action_space.shape)))

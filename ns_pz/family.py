@@ -42,7 +42,8 @@ class EnvFamily(ABC):
     render_fps: ClassVar[int] = 30
     """Frames per second of ``"human"`` rendering and of recorded videos."""
     _int_actions: tuple[Any, int, int]
-    """The action space and the ints it holds (set by :meth:`check_action` on first use)."""
+    """The action space and the ints it holds (set by :meth:`check_action` on first use; a
+    space is replaced, never changed in place, as Gymnasium's spaces are treated)."""
 
     def default_params(self) -> Params:
         """θ with every parameter at its default."""

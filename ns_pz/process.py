@@ -32,6 +32,7 @@ import math
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any, cast
 
 import numpy as np
@@ -448,7 +449,8 @@ class NSProcess:
         As nature's change recorded them (every changed parameter); ``None`` if there was no
         change or its sizes were not computed (level ``none``, a change by hand).
         """
-        return None if self.last_change is None else self._last_sizes
+        sizes = self._last_sizes
+        return None if self.last_change is None or sizes is None else MappingProxyType(sizes)
 
     def last_sizes(self) -> tuple[float, ...]:
         """True size of each parameter's change behind the last transition (zeros if none)."""

@@ -416,6 +416,9 @@ def test_ground_truth_sizes_are_the_total_variation_at_every_level(change, delta
         before, after = process.last_change
         recorded = process.last_change_sizes
         assert (recorded is None) is (not change)  # level none computes no sizes
+        if recorded is not None:
+            with pytest.raises(TypeError):  # a read-only view: the process keeps its own
+                recorded["slip"] = 1.0  # type: ignore[index]
         size = CliffWalkingParams.spec("slip").distance(before.slip, after.slip)
         assert info[wrappers.GROUND_TRUTH_DELTA]["P"] == size > 0.0
         assert info["transition_prob"] == list(process.last_theta.slip)

@@ -366,3 +366,25 @@ def test_nature_sees_states_and_actions_exactly_as_gymnasium_flattens_them(space
         got = flat(x)
         assert np.array(got, np.float32).tobytes() == expected.astype(np.float32).tobytes()
         assert len(got) == spaces.flatdim(space)
+
+
+def test_delta_actions_that_sum_to_nan_are_refused_even_where_the_space_is_unbounded():
+    """+inf and -inf in one Δθ (possible where parameters are unbounded) make no proposal."""
+    from dataclasses import dataclass
+    from types import SimpleNamespace
+
+    from ns_pz.nature.interface import NatureInterface
+    from ns_pz.params import Params, scalar
+
+    @dataclass(frozen=True, slots=True)
+    class Open(Params):
+        up: float = scalar(1.0, high=5.0)
+        down: float = scalar(1.0, low=0.0)
+
+    family = SimpleNamespace(params_cls=Open, observation_space=None, action_space=None)
+    interface = NatureInterface(family, Open(), NatureConstraints(), 10, action="delta")
+    assert interface.action_space.high[0] == np.inf
+    for action in ([np.inf, -np.inf], [np.nan, 0.0]):
+        with pytest.raises(ValueError, match="outside the action space"):
+            interface.proposal(np.array(action), Open())
+    assert interface.proposal(np.array([np.inf, 0.0]), Open()) == {"up": np.inf}

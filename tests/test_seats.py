@@ -200,12 +200,21 @@ def test_monitor_seat_pays_the_given_reward_and_its_flags_reach_the_agent():
 
 @pytest.mark.parametrize(
     "flags",
-    [[2, 0, 0, 0, 0, 0], [1, 0, 0, 0, 0], [-1, 0, 0, 0, 0, 0], np.ones(6) * 0.5, np.ones(6), "1"],
+    [
+        [2, 0, 0, 0, 0, 0],
+        [1, 0, 0, 0, 0],
+        [-1, 0, 0, 0, 0, 0],
+        np.ones(6) * 0.5,
+        np.ones(6),
+        np.ones(6, object),
+        np.ones(6, complex),
+        "1",
+    ],
 )
 def test_monitor_flags_must_be_zeros_and_ones(flags):
     """The monitor seat takes integer or bool 0/1 flags, one per parameter.
 
-    PolicyMonitor also takes floats equal to 0 or 1.
+    PolicyMonitor also takes floats and Python objects equal to 0 or 1 (not complex numbers).
     """
     env = ns_pz.single_agent(
         "ns_pz/CartPole-v0", "monitor", {DECISION: lambda obs: 0}, monitor_reward="detection"
@@ -217,7 +226,7 @@ def test_monitor_flags_must_be_zeros_and_ones(flags):
     view = ns_pz.make_gym(
         "ns_pz/CartPole-v0", monitor=PolicyMonitor(lambda obs: flags), notification="basic"
     )
-    if isinstance(flags, np.ndarray) and (flags == 1.0).all():
+    if isinstance(flags, np.ndarray) and flags.dtype.kind in "fO" and (flags == 1.0).all():
         view.reset(seed=0)
         assert view.step(0)[0]["env_change"].tolist() == [1] * 6
     else:

@@ -159,11 +159,12 @@ def silence(count: int) -> tuple[Flags, Sizes]:
     return (0,) * count, (0.0,) * count
 
 
-def as_flags(value: Any, count: int, kinds: str = "iubf") -> Flags | None:
+def as_flags(value: Any, count: int, kinds: str = "iubfO") -> Flags | None:
     """``value`` as ``count`` flags (Python ints, each 0 or 1), or ``None`` if it is not that.
 
-    ``kinds``: the NumPy dtype kinds accepted (default: integers, bools and floats equal to 0
-    or 1). Checked on a list of Python numbers: ``np.isin`` took 16 µs for six flags.
+    ``kinds``: the NumPy dtype kinds accepted (default: integers, bools, and floats or Python
+    objects equal to 0 or 1; never complex numbers). Checked on a list of Python numbers:
+    ``np.isin`` took 16 µs for six flags.
     """
     array = np.asarray(value)
     if array.shape != (count,) or array.dtype.kind not in kinds:

@@ -183,6 +183,12 @@ class NatureInterface:
             row += self._flat_state(process.family.observe(process.state))
             last = process.last_action
             row += self._no_last_action if last is None else self._flat_action(last)
+            if len(row) != self.observation_space.shape[0]:
+                raise ValueError(
+                    f"nature's observation has {len(row)} entries, its space "
+                    f"{self.observation_space.shape[0]}: {process.family!r}.observe() returned "
+                    "an observation outside its observation space"
+                )
         return np.array(row, np.float32)
 
     # -- actions ----------------------------------------------------------------------------
@@ -291,6 +297,9 @@ class NatureInterface:
                 f"nature action={action!r} must be a real vector in the action space {space}"
             )
         if values is None or len(values) != len(self._lows):
+            raise ValueError(f"nature action={action!r} is outside the action space {space}")
+        total = sum(values)  # NaN if the action holds NaN, or +inf and -inf (unbounded Δθ)
+        if total != total:
             raise ValueError(f"nature action={action!r} is outside the action space {space}")
         for value, low, high in zip(values, self._lows, self._highs, strict=False):
             if not low <= value <= high:
