@@ -152,7 +152,6 @@ class NSGame(AECEnv):
         self._scripted_notice: tuple[Any, int, Any, Any, list, list] | None = None
         """The monitor policy's action handed out this turn: the object, the step, and in dict
         mode its two arrays and their values then (``None`` and empty lists in flags mode)."""
-        self._nature_sign = self._nature_reward.sign
         # Before the first reset: calls meet ResetNeeded, not missing attributes.
         self.agent_selection = NATURE
         self.rewards: dict[str, float] = {}
@@ -269,7 +268,7 @@ class NSGame(AECEnv):
         process = self._process
         reward, terminated, truncated = process.transition(action)
         reward = float(reward)
-        nature_reward = self._nature_sign * reward  # NatureReward.per_step, inlined
+        nature_reward = self._nature_reward.per_step(reward)
         if process.done:
             nature_reward += self._nature_reward.at_end(process)
         self.rewards = {NATURE: nature_reward, MONITOR: 0.0, DECISION: reward}

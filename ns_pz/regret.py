@@ -66,12 +66,11 @@ class NatureReward:
             )
         self.mode = mode
         self.reference = reference
-        self.sign = {"zero_sum": -1.0, "cooperative": 1.0, "none": 0.0, "regret": -1.0}[mode]
-        """Nature's reward per unit of the agent's, at every step (:meth:`per_step`)."""
+        self._sign = {"zero_sum": -1.0, "cooperative": 1.0, "none": 0.0, "regret": -1.0}[mode]
 
     def per_step(self, reward: float) -> float:
-        """Nature's reward for a transition that paid the agent ``reward``: ``sign * reward``."""
-        return self.sign * reward
+        """Nature's reward for a transition that paid the agent ``reward``."""
+        return self._sign * reward
 
     def at_end(self, process: NSProcess) -> float:
         """Nature's extra reward when the episode ends (the reference's value for regret)."""

@@ -169,9 +169,8 @@ def admit(
                 granted[name] = new
                 if sizes_wanted:
                     sizes[name] = spec.distance(old, new)
-        if not granted:
-            return theta, (sizes if sizes_wanted else None)
-        return layout.evolve(theta, granted), (sizes if sizes_wanted else None)
+        new_theta = layout.evolve(theta, granted) if granted else theta
+        return new_theta, (sizes if sizes_wanted else None)
     for name, raw in proposal.items():
         spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
         old = getattr(theta, name)
