@@ -16,10 +16,12 @@ reproduces a run on the same machine and torch build.
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 import os
 import statistics
+import sys
 import time
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
@@ -30,6 +32,7 @@ import gymnasium as gym
 import stable_baselines3
 from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.logger import HumanOutputFormat, KVWriter, Logger
 
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
@@ -47,21 +50,48 @@ class TrainArgs:
     total_timesteps: int = 20_000
     """Learner steps per training call (per RARL round for that side)."""
     hyperparameters: Mapping[str, Any] = field(default_factory=dict)
-    """Keyword arguments of the SB3 constructor (``n_steps``, ``learning_rate``...)."""
+    """Keyword arguments of the SB3 constructor (``n_steps``, ``learning_rate``, ``verbose``...;
+    not ``policy``, ``env`` or ``seed``, which training sets)."""
 
     def __post_init__(self) -> None:
-        if not hasattr(stable_baselines3, self.algo):
+        algo = getattr(stable_baselines3, self.algo, None) if isinstance(self.algo, str) else None
+        if not (isinstance(algo, type) and issubclass(algo, BaseAlgorithm)):
             raise ValueError(f"algo={self.algo!r} is not a Stable-Baselines3 algorithm")
         steps = self.total_timesteps
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
             raise ValueError(f"total_timesteps={steps!r} must be an int >= 1")
+        if not isinstance(self.hyperparameters, Mapping):
+            raise TypeError(
+                f"hyperparameters={self.hyperparameters!r} must be a mapping of keyword arguments"
+            )
+        allowed = set(inspect.signature(algo.__init__).parameters) - _SET_BY_TRAINING
+        for name in self.hyperparameters:
+            if name not in allowed:
+                why = "training sets it" if name in _SET_BY_TRAINING else "no such argument"
+                raise ValueError(
+                    f"hyperparameters[{name!r}] is not allowed for {self.algo} ({why}); "
+                    f"allowed: {sorted(allowed)}"
+                )
+
+
+_SET_BY_TRAINING = frozenset({"self", "policy", "env", "seed", "_init_setup_model"})
 
 
 def make_model(env: gym.Env, args: TrainArgs, seed: int) -> BaseAlgorithm:
-    """A fresh SB3 model of ``args.algo`` on ``env`` (``MultiInputPolicy`` for Dict spaces)."""
+    """A fresh SB3 model of ``args.algo`` on ``env`` (``MultiInputPolicy`` for Dict spaces).
+
+    Quiet unless ``args.hyperparameters`` sets ``verbose``. Without ``tensorboard_log`` its
+    logger writes nowhere but standard output (at ``verbose >= 1``): SB3's default logger
+    would create an empty ``SB3-<date>`` folder in the temporary directory at every ``learn``.
+    """
     policy = "MultiInputPolicy" if isinstance(env.observation_space, spaces.Dict) else "MlpPolicy"
     algo = getattr(stable_baselines3, args.algo)
-    return algo(policy, env, seed=seed, verbose=0, **dict(args.hyperparameters))
+    kwargs = {"verbose": 0, **args.hyperparameters}
+    model = algo(policy, env, seed=seed, **kwargs)
+    if model.tensorboard_log is None:
+        outputs: list[KVWriter] = [HumanOutputFormat(sys.stdout)] if model.verbose >= 1 else []
+        model.set_logger(Logger(folder=None, output_formats=outputs))
+    return model
 
 
 def train(env: gym.Env, args: TrainArgs, seed: int) -> BaseAlgorithm:

@@ -182,3 +182,40 @@ def test_bad_training_arguments_are_named():
         TrainArgs(total_timesteps=0)
     with pytest.raises(ValueError, match="rounds=0"):
         rarl(CARTPOLE, rounds=0)
+
+
+def test_training_arguments_that_training_sets_or_sb3_lacks_are_named():
+    """A hyperparameter the algorithm lacks, or one training sets itself, is refused by name."""
+    with pytest.raises(ValueError, match=r"hyperparameters\['n_stpes'\].*no such argument"):
+        TrainArgs(hyperparameters={"n_stpes": 64})
+    with pytest.raises(ValueError, match=r"hyperparameters\['seed'\].*training sets it"):
+        TrainArgs(hyperparameters={"seed": 3})
+    with pytest.raises(ValueError, match=r"hyperparameters\['n_epochs'\] is not allowed for DQN"):
+        TrainArgs(algo="DQN", hyperparameters={"n_epochs": 4})
+    with pytest.raises(TypeError, match="hyperparameters=.*mapping"):
+        TrainArgs(hyperparameters=[("n_steps", 64)])
+    with pytest.raises(ValueError, match="algo='common'"):
+        TrainArgs(algo="common")
+
+
+def test_training_leaves_no_log_folders_and_honours_verbose(tmp_path, monkeypatch, capsys):
+    """SB3's default logger would make an empty SB3-<date> folder per learn(); ours makes none.
+
+    ``verbose`` among the hyperparameters is the model's verbosity (it clashed with ours).
+    """
+    import tempfile
+
+    monkeypatch.delenv("SB3_LOGDIR", raising=False)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    lake = ns_pz.single_agent("ns_pz/FrozenLake-v0", DECISION, max_episode_steps=20)
+    quiet = TrainArgs(total_timesteps=64, hyperparameters={"n_steps": 32, "batch_size": 32})
+    model = ns_pz.learn.train(lake, quiet, seed=0)
+    assert model.verbose == 0
+    assert capsys.readouterr().out == ""
+    loud = TrainArgs(
+        total_timesteps=64, hyperparameters={"n_steps": 32, "batch_size": 32, "verbose": 1}
+    )
+    model = ns_pz.learn.train(lake, loud, seed=0)
+    assert model.verbose == 1
+    assert "total_timesteps" in capsys.readouterr().out
+    assert list(tmp_path.iterdir()) == []
