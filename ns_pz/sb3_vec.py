@@ -46,9 +46,20 @@ class SB3VecEnv(VecEnv):  # type: ignore[misc]  # SB3 is untyped here
         self._actions: Any = None
 
     def reset(self) -> dict[str, np.ndarray]:
-        """Reset every sub-env (with the seeds given to :meth:`seed`, if any)."""
+        """Reset every sub-env, with the seeds and options given to ``seed``/``set_options``.
+
+        Raises:
+            ValueError: :meth:`set_options` gave the sub-envs different options: they reset
+                together, with one ``options`` for all.
+        """
         seeds = self._seeds if any(s is not None for s in self._seeds) else None
-        obs, _ = self.env.reset(seed=seeds)
+        given = [options for options in self._options if options]
+        if given and (len(given) < self.num_envs or any(o != given[0] for o in given)):
+            raise ValueError(
+                f"set_options gave the sub-envs different options ({self._options!r}); "
+                "SB3VecEnv resets them together, with the same options for all"
+            )
+        obs, _ = self.env.reset(seed=seeds, options=given[0] if given else None)
         self._reset_seeds()
         self._reset_options()
         return obs

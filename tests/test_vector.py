@@ -224,6 +224,23 @@ def test_sb3_adapter_steps_without_a_loop() -> None:
     assert done_seen
 
 
+def test_sb3_adapter_resets_with_the_options_sb3_set() -> None:
+    """set_options reaches the next reset (once); options differing per sub-env are refused."""
+    pytest.importorskip("stable_baselines3")
+    from ns_pz.sb3_vec import SB3VecEnv
+
+    env = SB3VecEnv(make_vec("ns_pz/CartPole-v0", 2, autoreset_mode="SameStep"))
+    env.set_options({"params": {"masspole": 0.5}})
+    env.seed(0)
+    env.reset()
+    assert env.env.thetas()[:, 2].tolist() == [0.5, 0.5]
+    env.reset()  # options hold for one reset, as in SB3's own VecEnvs
+    assert env.env.thetas()[:, 2].tolist() == [0.1, 0.1]
+    env.set_options([{"params": {"masspole": 0.5}}, {}])
+    with pytest.raises(ValueError, match="different options"):
+        env.reset()
+
+
 def test_grid_kernel_takes_the_last_positive_outcome_when_rounding_leaves_u_above_the_sum() -> None:
     """θ summing a hair below 1 and u above the sum: the scalar step's choice, not index K."""
     from ns_pz.envs.batched import SlipGridKernel
