@@ -28,13 +28,22 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-# The repository's examples/ folder, found from wherever the tutorial runs (the docs build runs
-# it in docs/tutorials/).
+# The repository's examples/ folder, found from this file or from wherever the tutorial runs
+# (the docs build runs it in docs/tutorials/).
+here = Path(globals().get("__file__", Path.cwd())).resolve()
 example = next(
-    folder / "examples" / "nsgym_migration.py"
-    for folder in (Path.cwd(), *Path.cwd().parents)
-    if (folder / "examples" / "nsgym_migration.py").is_file()
+    (
+        folder / "examples" / "nsgym_migration.py"
+        for folder in (*here.parents, Path.cwd(), *Path.cwd().parents)
+        if (folder / "examples" / "nsgym_migration.py").is_file()
+    ),
+    None,
 )
+if example is None:
+    raise FileNotFoundError(
+        "this tutorial runs examples/nsgym_migration.py from a checkout of the ns_pz "
+        "repository; run it from inside the checkout"
+    )
 run = runpy.run_path(str(example), run_name="__main__")
 
 # %%
