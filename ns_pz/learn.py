@@ -19,6 +19,7 @@ from __future__ import annotations
 import inspect
 import json
 import math
+import numbers
 import os
 import statistics
 import sys
@@ -37,8 +38,10 @@ from stable_baselines3.common.logger import HumanOutputFormat, KVWriter, Logger
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.process import DECISION, NATURE
-from ns_pz.seat_policies import call_policy
+from ns_pz.regret import RegretReference
+from ns_pz.seat_policies import DecisionPolicy, call_policy, check_policy, is_agent
 from ns_pz.seats import single_agent
+from ns_pz.views import NSGymEnv
 
 
 @dataclass(frozen=True)
@@ -57,9 +60,7 @@ class TrainArgs:
         algo = getattr(stable_baselines3, self.algo, None) if isinstance(self.algo, str) else None
         if not (isinstance(algo, type) and issubclass(algo, BaseAlgorithm)):
             raise ValueError(f"algo={self.algo!r} is not a Stable-Baselines3 algorithm")
-        steps = self.total_timesteps
-        if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
-            raise ValueError(f"total_timesteps={steps!r} must be an int >= 1")
+        object.__setattr__(self, "total_timesteps", _count("total_timesteps", self.total_timesteps))
         if not isinstance(self.hyperparameters, Mapping):
             raise TypeError(
                 f"hyperparameters={self.hyperparameters!r} must be a mapping of keyword arguments"
@@ -72,6 +73,17 @@ class TrainArgs:
                     f"hyperparameters[{name!r}] is not allowed for {self.algo} ({why}); "
                     f"allowed: {sorted(allowed)}"
                 )
+
+
+def _count(name: str, value: Any) -> int:
+    """``value`` as an int >= 1 (NumPy integers too).
+
+    Raises:
+        ValueError: Not an integer (``bool`` included) or below 1.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise ValueError(f"{name}={value!r} must be an int >= 1")
+    return int(value)
 
 
 _SET_BY_TRAINING = frozenset({"self", "policy", "env", "seed", "_init_setup_model"})
@@ -108,13 +120,15 @@ def train_adversary(
     args: TrainArgs | None = None,
     seed: int = 0,
     nature_reward: str = "zero_sum",
+    nature_action: str = "normalized",
     nature_observes_state: bool = False,
     default_step: float = DEFAULT_STEP,
     **env_kwargs: Any,
 ) -> BaseAlgorithm:
     """Train nature against a fixed decision agent; returns the SB3 model.
 
-    Put it back anywhere with ``PolicyNature(model, observes_state=nature_observes_state)``.
+    Put it back anywhere with ``PolicyNature(model, action=nature_action,
+    observes_state=nature_observes_state, default_step=default_step)``.
 
     Args:
         env_id: A registered id.
@@ -122,6 +136,7 @@ def train_adversary(
         args: How nature trains (default: PPO for 20,000 steps).
         seed: Seeds SB3 and every episode.
         nature_reward: ``"zero_sum"`` or ``"regret"`` (see :func:`ns_pz.single_agent`).
+        nature_action: Nature's action convention, ``"normalized"`` or ``"delta"``.
         nature_observes_state: Nature sees the agent's state and last action.
         default_step: Allowance of a parameter without a Lipschitz bound (fraction of θ_0).
         **env_kwargs: The environment's arguments (``constraints``, ``notification``, ...).
@@ -131,6 +146,7 @@ def train_adversary(
         NATURE,
         {DECISION: agent},
         nature_reward=nature_reward,
+        nature_action=nature_action,
         nature_observes_state=nature_observes_state,
         default_step=default_step,
         **env_kwargs,
@@ -170,6 +186,9 @@ def rarl(
     seed: int = 0,
     out_dir: str | os.PathLike[str] | None = None,
     eval_episodes: int = 10,
+    nature_reward: str = "zero_sum",
+    regret_reference: RegretReference | None = None,
+    nature_action: str = "normalized",
     nature_observes_state: bool = False,
     default_step: float = DEFAULT_STEP,
     **env_kwargs: Any,
@@ -187,26 +206,38 @@ def rarl(
         nature_args: How nature trains (default: PPO, 20,000 steps a round).
         seed: Seeds both models and every episode.
         out_dir: Where ``round_K/agent.zip``, ``round_K/nature.zip`` and ``log.jsonl`` go
-            (written as each round ends); ``None``: nothing is written.
+            (written as each round ends); ``None``: nothing is written. A folder that already
+            holds a run is refused.
         eval_episodes: Episodes (seeds ``seed + 10_000 ...``) of the agent against the round's
             nature, for the log.
+        nature_reward: Nature's payoff, ``"zero_sum"`` (RARL's) or another of
+            :func:`ns_pz.single_agent`'s.
+        regret_reference: The reference of ``"regret"`` (see :func:`ns_pz.single_agent`).
+        nature_action: Nature's action convention, ``"normalized"`` or ``"delta"``; the agent
+            meets nature's model under the same one.
         nature_observes_state: Nature sees the agent's state and last action.
         default_step: Allowance of a parameter without a Lipschitz bound (see
             :mod:`ns_pz.nature.interface`).
         **env_kwargs: The environment's arguments (``constraints``, ``notification``, ...).
 
     Raises:
-        ValueError: ``rounds`` or ``eval_episodes`` below 1.
+        ValueError: ``rounds`` or ``eval_episodes`` below 1, or ``out_dir`` holds a run.
     """
-    for name, value in (("rounds", rounds), ("eval_episodes", eval_episodes)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise ValueError(f"{name}={value!r} must be an int >= 1")
+    rounds = _count("rounds", rounds)
+    eval_episodes = _count("eval_episodes", eval_episodes)
+    if out_dir is not None and (Path(out_dir) / "log.jsonl").exists():
+        raise ValueError(
+            f"out_dir={str(out_dir)!r} already holds a RARL run (log.jsonl); give a new folder"
+        )
     agent_args = agent_args or TrainArgs()
     nature_args = nature_args or TrainArgs()
     nature_seat = _Seat()
     agent_seat = _Seat()
     nature_policy = PolicyNature(
-        nature_seat, observes_state=nature_observes_state, default_step=default_step
+        nature_seat,
+        action=nature_action,
+        observes_state=nature_observes_state,
+        default_step=default_step,
     )
     agent_env = single_agent(env_id, DECISION, {NATURE: nature_policy}, **env_kwargs)
     eval_env = single_agent(env_id, DECISION, {NATURE: nature_policy}, **env_kwargs)
@@ -214,8 +245,11 @@ def rarl(
         env_id,
         NATURE,
         {DECISION: agent_seat},
+        nature_reward=nature_reward,
+        nature_action=nature_action,
         nature_observes_state=nature_observes_state,
         default_step=default_step,
+        regret_reference=regret_reference,
         **env_kwargs,
     )
     agent_model = agent_seat.model = make_model(agent_env, agent_args, seed)
@@ -247,13 +281,37 @@ def rarl(
 
 
 def episode_returns(env: gym.Env, policy: Any, seeds: range | list[int]) -> list[float]:
-    """The learner's return in ``env``, one episode per seed, ``policy`` deterministic."""
+    """The learner's return in ``env``, one episode per seed, ``policy`` deterministic.
+
+    ``policy`` is a callable ``obs -> action``, an SB3-style model or, in an agent's view
+    (:func:`ns_pz.single_agent` with ``learner="agent"``), an ns_pz ``Agent``, which is handed
+    the planning model the notification level allows and a generator from the seed.
+
+    Raises:
+        TypeError: ``policy`` cannot act, or is an ns_pz ``Agent`` outside an agent's view.
+    """
+    view: Any = env.unwrapped
+    decide = None
+    if is_agent(policy):
+        if not isinstance(view, NSGymEnv):
+            raise TypeError(
+                f"policy={policy!r} is an ns_pz Agent, which plays the decision agent's seat "
+                f"only; {env!r} is not an agent's view"
+            )
+        decide = DecisionPolicy(policy)
+    else:
+        check_policy(policy, NATURE, "policy")
     returns = []
     for seed in seeds:
         observation, _ = env.reset(seed=seed)
+        if decide is not None:
+            decide.reset(view.process.seat_rng())
         total, done = 0.0, False
         while not done:
-            action = call_policy(policy, observation, deterministic=True)
+            if decide is not None:
+                action = decide(view.process)
+            else:
+                action = call_policy(policy, observation, deterministic=True)
             observation, reward, terminated, truncated, _ = env.step(action)
             total += float(reward)
             done = terminated or truncated

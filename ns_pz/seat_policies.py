@@ -4,7 +4,9 @@ A seat (nature, monitor, decision agent) can be played by
 
 * a callable ``observation -> action``;
 * an object with Stable-Baselines3's ``predict(observation, deterministic=...)`` (any SB3 model
-  or policy, and anything shaped like one), asked deterministically unless told otherwise;
+  or policy, and anything shaped like one), asked deterministically unless told otherwise; asked
+  stochastically, it samples from torch's generator reseeded from the seat's own generator for
+  that one call (torch's global state is restored after it), so one seed reproduces the run;
 * an :class:`ns_pz.agents.base.Agent`-shaped object (``act(observation, model)``,
   ``reset(rng)``, ``needs_model``), which is handed the planning model the notification level
   allows, like in every other ns_pz loop.
@@ -15,26 +17,50 @@ A seat (nature, monitor, decision agent) can be played by
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import sys
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from gymnasium import spaces
 
 if TYPE_CHECKING:
     from ns_pz.process import NSProcess
 
 
-def call_policy(policy: Any, observation: Any, *, deterministic: bool = True) -> Any:
-    """The action of ``policy`` (a callable or an SB3-style model) for ``observation``."""
+def call_policy(
+    policy: Any,
+    observation: Any,
+    *,
+    deterministic: bool = True,
+    rng: np.random.Generator | None = None,
+) -> Any:
+    """The action of ``policy`` (a callable or an SB3-style model) for ``observation``.
+
+    Asked with ``deterministic=False`` and given ``rng``, an SB3-style model samples from torch's
+    generator seeded from ``rng`` (one draw per call) inside ``torch.random.fork_rng``: the
+    sample is reproducible and torch's global state is left as it was.
+    """
     predict = getattr(policy, "predict", None)
-    if callable(predict):
+    if not callable(predict):
+        return policy(observation)
+    torch = sys.modules.get("torch")  # loaded if the model is a torch one; never imported here
+    if deterministic or rng is None or torch is None:
         action, _ = predict(observation, deterministic=deterministic)
         return action
-    return policy(observation)
+    seed = int(rng.integers(2**63))
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        action, _ = predict(observation, deterministic=False)
+    return action
 
 
-def check_policy(policy: Any, seat: str) -> None:
+def check_policy(policy: Any, seat: str, label: str | None = None) -> None:
     """Raise ``TypeError`` unless ``policy`` can drive ``seat``.
+
+    Args:
+        policy: The candidate.
+        seat: ``"agent"``, ``"nature"`` or ``"monitor"``.
+        label: How the error names the argument (default ``policies[seat]``).
 
     Raises:
         TypeError: ``policy`` is neither callable, nor has ``predict``, nor (for the agent's
@@ -47,7 +73,65 @@ def check_policy(policy: Any, seat: str) -> None:
     allowed = "a callable obs -> action or an object with SB3's predict()"
     if seat == "agent":
         allowed += " or an ns_pz Agent (act(obs, model))"
-    raise TypeError(f"policies[{seat!r}]={policy!r} cannot drive the {seat} seat; give {allowed}")
+    label = label or f"policies[{seat!r}]"
+    raise TypeError(f"{label}={policy!r} cannot drive the {seat} seat; give {allowed}")
+
+
+def check_policy_spaces(
+    policy: Any,
+    observation_space: spaces.Space[Any],
+    action_space: spaces.Space[Any],
+    label: str,
+    hint: str = "",
+) -> None:
+    """Refuse a policy whose own spaces (an SB3 model's) differ from the seat's.
+
+    Compared when ``policy`` carries ``observation_space`` / ``action_space`` (SB3 models do):
+    the kind and shape of each (per key for a ``Dict``) and, for a ``Box`` action, its bounds,
+    which tell action conventions apart.
+
+    Raises:
+        ValueError: A space differs; the message names both.
+    """
+    for kind, expected in (("observation", observation_space), ("action", action_space)):
+        own = getattr(policy, f"{kind}_space", None)
+        if not isinstance(own, spaces.Space):
+            continue
+        same = _same_layout(own, expected)
+        if same and kind == "action" and isinstance(own, spaces.Box):
+            box: Any = expected  # a Box too, by _same_layout
+            same = np.array_equal(own.low, box.low) and np.array_equal(own.high, box.high)
+        if not same:
+            raise ValueError(
+                f"{label} acts in the {kind} space {own}, but this seat's is {expected}{hint}"
+            )
+
+
+def _same_layout(own: spaces.Space[Any], expected: spaces.Space[Any]) -> bool:
+    if type(own) is not type(expected):
+        return False
+    if isinstance(own, spaces.Dict):
+        return own.keys() == expected.keys() and all(  # type: ignore[attr-defined]
+            _same_layout(own[key], expected[key])  # type: ignore[index]
+            for key in own.keys()
+        )
+    return own.shape == expected.shape
+
+
+def check_deterministic(deterministic: Any) -> bool:
+    """``deterministic`` if it is a bool.
+
+    Raises:
+        TypeError: It is not.
+    """
+    if not isinstance(deterministic, bool):
+        raise TypeError(f"deterministic={deterministic!r} must be a bool")
+    return deterministic
+
+
+def is_agent(policy: Any) -> bool:
+    """Whether ``policy`` is an ns_pz ``Agent`` (``act(obs, model)``, no SB3 ``predict``)."""
+    return callable(getattr(policy, "act", None)) and not callable(getattr(policy, "predict", None))
 
 
 class DecisionPolicy:
@@ -56,18 +140,21 @@ class DecisionPolicy:
     Args:
         policy: A callable, an SB3-style model or an ns_pz ``Agent``.
         deterministic: Passed to ``predict`` of an SB3-style model.
+
+    Raises:
+        TypeError: ``policy`` cannot drive the agent's seat, or ``deterministic`` is not a bool.
     """
 
     def __init__(self, policy: Any, *, deterministic: bool = True) -> None:
         check_policy(policy, "agent")
         self.policy = policy
-        self.deterministic = deterministic
-        self._agent = callable(getattr(policy, "act", None)) and not callable(
-            getattr(policy, "predict", None)
-        )
+        self.deterministic = check_deterministic(deterministic)
+        self._agent = is_agent(policy)
+        self._rng: np.random.Generator | None = None
 
     def reset(self, rng: np.random.Generator) -> None:
-        """Start an episode (an ns_pz agent gets ``rng``; other policies carry no episode state)."""
+        """Start an episode: ``rng`` drives an ns_pz agent, or an SB3 model's sampling."""
+        self._rng = rng
         if self._agent:
             self.policy.reset(rng)
 
@@ -78,7 +165,6 @@ class DecisionPolicy:
             needs_model = getattr(self.policy, "needs_model", True)
             model = process.planning_model() if needs_model else None
             return self.policy.act(observation, model)
-        return call_policy(self.policy, observation, deterministic=self.deterministic)
-
-
-DecideFn = Callable[["NSProcess"], Any]
+        return call_policy(
+            self.policy, observation, deterministic=self.deterministic, rng=self._rng
+        )

@@ -16,6 +16,7 @@ planning models and the policies playing the other seats.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Mapping
 from typing import Any, SupportsFloat
 
@@ -25,13 +26,14 @@ from gymnasium import spaces
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor, as_flags
 from ns_pz.monitor.scoring import detection_reward
-from ns_pz.nature.interface import DEFAULT_STEP
+from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS, check_default_step
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.nature.policies import Nature
 from ns_pz.observations import monitor_flags_space, monitor_observation_space
 from ns_pz.process import AGENTS, DECISION, MONITOR, NATURE, NSProcess
-from ns_pz.regret import NatureReward, RegretReference, default_reference
-from ns_pz.seat_policies import DecisionPolicy, check_policy
+from ns_pz.regret import NATURE_REWARDS, NatureReward, RegretReference, default_reference
+from ns_pz.rendering import Renderer, render_metadata
+from ns_pz.seat_policies import DecisionPolicy, check_deterministic, check_policy
 from ns_pz.views import reset_seeded
 
 MonitorRewardFn = Callable[[NSProcess, tuple], float]
@@ -103,14 +105,27 @@ def single_agent(
         default_step: Per-step allowance of a parameter without a Lipschitz bound, as a
             fraction of its size at θ_0 (see :mod:`ns_pz.nature.interface`).
         monitor_reward: What the learning monitor earns per turn: ``"detection"`` (a
-            :class:`DetectionReward` with λ = 10) or any ``fn(process, flags) -> float``.
-            Required for ``learner="monitor"``.
-        deterministic: Ask SB3-style policies of the other seats deterministically.
+            :class:`DetectionReward` with λ = 10) or any ``fn(process, flags) -> float``; an
+            object with a ``reset()`` method (a :class:`DetectionReward` of your own λ) is
+            copied, so one instance may serve several environments. Required for
+            ``learner="monitor"``.
+        deterministic: Ask SB3-style policies of the other seats deterministically; when
+            sampling, they draw from the seed (see :func:`ns_pz.seat_policies.call_policy`).
         **env_kwargs: The environment's arguments (``params``, ``nature``, ``monitor``,
-            ``notification``, ``constraints``, ``max_episode_steps``, family arguments).
+            ``notification``, ``constraints``, ``max_episode_steps``, ``render_mode``,
+            ``ground_truth_info``, family arguments).
+
+    The options of one seat apply only where that seat is played as they describe:
+    ``nature_reward`` and ``regret_reference`` when nature learns, ``monitor_reward`` when the
+    monitor learns, ``nature_action``, ``nature_observes_state`` and ``default_step`` when
+    nature learns or ``policies["nature"]`` is a bare policy (a :class:`PolicyNature` carries its
+    own, which they must then match). Elsewhere they would be silently ignored, so a value other
+    than the default is refused, as is a seat given twice (in ``policies`` and as ``nature=`` /
+    ``monitor=``) or a schedule for the seat that learns.
 
     Raises:
-        ValueError / TypeError: An unknown learner or seat, a missing or unusable policy.
+        ValueError / TypeError: An unknown learner or seat, a missing or unusable policy, an
+            option outside its allowed values or for a seat it does not apply to.
     """
     from ns_pz.envs.registry import make_gym
 
@@ -122,6 +137,18 @@ def single_agent(
             raise ValueError(f"policies has a seat {seat!r}; allowed: {AGENTS}")
     if learner in policies:
         raise ValueError(f"policies[{learner!r}] is given, but {learner!r} is the learner")
+    _check_seat_options(
+        learner,
+        policies,
+        env_kwargs,
+        nature_reward=nature_reward,
+        regret_reference=regret_reference,
+        nature_action=nature_action,
+        nature_observes_state=nature_observes_state,
+        default_step=default_step,
+        monitor_reward=monitor_reward,
+    )
+    check_deterministic(deterministic)
     if NATURE in policies:
         env_kwargs["nature"] = _as_nature(
             policies[NATURE], nature_action, nature_observes_state, default_step, deterministic
@@ -135,9 +162,10 @@ def single_agent(
             f"policies[{DECISION!r}] is needed: who plays the decision agent while {learner!r} "
             "learns (a callable, an SB3 model or an ns_pz Agent)"
         )
-    view = make_gym(env, **env_kwargs)
     if learner == DECISION:
-        return view
+        return make_gym(env, **env_kwargs)
+    seat_options = {k: env_kwargs.pop(k) for k in _SEAT_ENV_KWARGS if k in env_kwargs}
+    view = make_gym(env, **env_kwargs)
     return SeatEnv(
         view.process,
         learner,
@@ -148,7 +176,107 @@ def single_agent(
         nature_observes_state=nature_observes_state,
         default_step=default_step,
         monitor_reward=monitor_reward,
+        **seat_options,
     )
+
+
+_SEAT_ENV_KWARGS = ("render_mode", "ground_truth_info")
+"""Arguments of the view that a learner seat's environment takes itself."""
+
+
+def _check_seat_options(
+    learner: str,
+    policies: Mapping[str, Any],
+    env_kwargs: Mapping[str, Any],
+    *,
+    nature_reward: str,
+    regret_reference: RegretReference | None,
+    nature_action: str,
+    nature_observes_state: bool,
+    default_step: float,
+    monitor_reward: MonitorRewardFn | str | None,
+) -> None:
+    """Refuse options outside their values, and options for a seat they would not reach."""
+    if nature_reward not in NATURE_REWARDS:
+        raise ValueError(f"nature_reward={nature_reward!r}; allowed: {NATURE_REWARDS}")
+    if nature_action not in NATURE_ACTIONS:
+        raise ValueError(f"nature_action={nature_action!r}; allowed: {NATURE_ACTIONS}")
+    if not isinstance(nature_observes_state, bool):
+        raise TypeError(f"nature_observes_state={nature_observes_state!r} must be a bool")
+    check_default_step(default_step)
+    if not (monitor_reward is None or monitor_reward == "detection" or callable(monitor_reward)):
+        raise ValueError(
+            f"monitor_reward={monitor_reward!r}; allowed: None, 'detection' or a function "
+            "fn(process, flags) -> float"
+        )
+    for seat in (NATURE, MONITOR):
+        if seat not in env_kwargs:
+            continue
+        if seat == learner:
+            raise ValueError(
+                f"{seat}={env_kwargs[seat]!r} is given, but {seat!r} is the learner: its "
+                "policy is the one being trained"
+            )
+        if seat in policies:
+            raise ValueError(
+                f"policies[{seat!r}] and {seat}= both say who plays {seat!r}; give one"
+            )
+    if learner != NATURE:
+        if nature_reward != "zero_sum" or regret_reference is not None:
+            raise ValueError(
+                f"nature_reward={nature_reward!r} / regret_reference={regret_reference!r} "
+                f"apply only when nature learns, not with learner={learner!r}"
+            )
+        nature = policies[NATURE] if NATURE in policies else env_kwargs.get(NATURE)
+        _check_nature_conventions(nature, nature_action, nature_observes_state, default_step)
+    if learner != MONITOR and monitor_reward is not None:
+        raise ValueError(
+            f"monitor_reward={monitor_reward!r} applies only when the monitor learns, not with "
+            f"learner={learner!r}"
+        )
+
+
+def _check_nature_conventions(
+    policy: Any, action: str, observes_state: bool, default_step: float
+) -> None:
+    """Nature's conventions when nature does not learn: for a bare policy, or matching its own."""
+    given = {
+        "nature_action": action,
+        "nature_observes_state": observes_state,
+        "default_step": default_step,
+    }
+    if policy is not None and not isinstance(policy, Nature):
+        return  # a bare policy: wrapped in a PolicyNature with these conventions
+    if isinstance(policy, PolicyNature):
+        own = {
+            "nature_action": policy.action,
+            "nature_observes_state": policy.observes_state,
+            "default_step": policy.default_step,
+        }
+        clashes = [
+            f"{k}={v!r} (its own: {own[k]!r})"
+            for k, v in given.items()
+            if v != _DEFAULT_CONVENTIONS[k] and v != own[k]  # set here, and not as its own
+        ]
+        if clashes:
+            raise ValueError(
+                f"policies['nature'] is {policy!r}, which carries its own conventions; "
+                f"{', '.join(clashes)}: build the PolicyNature with them instead"
+            )
+        return
+    moved = [f"{k}={v!r}" for k, v in given.items() if v != _DEFAULT_CONVENTIONS[k]]
+    if moved:
+        raise ValueError(
+            f"{', '.join(moved)} apply only to a learning nature or a bare policy in "
+            "policies['nature']; here nature is a schedule or a Nature object"
+        )
+
+
+_DEFAULT_CONVENTIONS = {
+    "nature_action": "normalized",
+    "nature_observes_state": False,
+    "default_step": DEFAULT_STEP,
+}
 
 
 class SeatEnv(gym.Env[Any, Any]):
@@ -160,6 +288,9 @@ class SeatEnv(gym.Env[Any, Any]):
         decide: Plays the decision agent's turns.
         nature_reward / regret_reference / nature_action / nature_observes_state /
         default_step / monitor_reward: As in :func:`single_agent`.
+        render_mode: ``None`` or one of the family's modes, as for the view (a ``"human"``
+            window is redrawn after every step of this environment).
+        ground_truth_info: Put the θ of the last transition into ``info["theta"]``.
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -176,12 +307,18 @@ class SeatEnv(gym.Env[Any, Any]):
         nature_observes_state: bool = False,
         default_step: float = DEFAULT_STEP,
         monitor_reward: MonitorRewardFn | str | None = None,
+        render_mode: str | None = None,
+        ground_truth_info: bool = False,
     ) -> None:
         if learner not in (NATURE, MONITOR):
             raise ValueError(f"learner={learner!r}; a SeatEnv serves {NATURE!r} or {MONITOR!r}")
         self._process = process
         self.learner = learner
         self._decide = decide
+        self._renderer = Renderer(process.family, render_mode)
+        self.render_mode = render_mode
+        self.metadata = {**type(self).metadata, **render_metadata(process.family)}
+        self._ground_truth_info = bool(ground_truth_info)
         if learner == NATURE:
             if nature_reward == "regret" and regret_reference is None:
                 regret_reference = default_reference(process.family)
@@ -194,6 +331,8 @@ class SeatEnv(gym.Env[Any, Any]):
         else:
             if monitor_reward == "detection":
                 monitor_reward = DetectionReward()
+            elif callable(getattr(monitor_reward, "reset", None)):
+                monitor_reward = copy.deepcopy(monitor_reward)  # its episode state is ours
             if monitor_reward is None or not callable(monitor_reward):
                 raise ValueError(
                     f"monitor_reward={monitor_reward!r}: a learning monitor needs a reward: "
@@ -224,7 +363,9 @@ class SeatEnv(gym.Env[Any, Any]):
             if callable(reset):
                 reset()
         process.play_until(self.learner, self._decide)
-        return self._observe(), {}
+        if self.render_mode == "human":
+            self.render()
+        return self._observe(), self._info()
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         """The learner's turn, then the other seats' turns until its next one.
@@ -248,7 +389,26 @@ class SeatEnv(gym.Env[Any, Any]):
             reward = float(self._monitor_reward(process, flags))
             process.play_until(MONITOR, self._decide)
         terminated, truncated = process.ended if process.done else (False, False)
-        return self._observe(), float(reward), terminated, truncated, {}
+        if self.render_mode == "human":
+            self.render()
+        return self._observe(), float(reward), terminated, truncated, self._info()
+
+    def render(self) -> Any:
+        """The current state in :attr:`render_mode`, as the view renders it.
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        return self._renderer.render(self._process)
+
+    def close(self) -> None:
+        """Close the render window, if one is open."""
+        self._renderer.close()
+
+    def _info(self) -> dict[str, Any]:
+        if self._ground_truth_info:
+            return {"theta": self._process.last_theta.as_dict()}
+        return {}
 
     def _observe(self) -> Any:
         process = self._process

@@ -18,7 +18,13 @@ from stable_baselines3 import PPO  # noqa: E402
 
 import ns_pz  # noqa: E402
 from ns_pz import DECISION, NATURE  # noqa: E402
-from ns_pz.learn import TrainArgs, make_model, rarl, train_adversary  # noqa: E402
+from ns_pz.learn import (  # noqa: E402
+    TrainArgs,
+    episode_returns,
+    make_model,
+    rarl,
+    train_adversary,
+)
 from ns_pz.nature import (  # noqa: E402
     NatureConstraints,
     PolicyNature,
@@ -154,6 +160,42 @@ def test_rarl_logs_every_round_and_its_checkpoints_load_and_act_identically(tmp_
         )
     round_1 = PPO.load(tmp_path / "round_1" / "agent.zip")
     assert round_1.num_timesteps == 128
+    with pytest.raises(ValueError, match="already holds a RARL run"):
+        rarl(CARTPOLE, rounds=1, agent_args=small, nature_args=small, out_dir=tmp_path, **POLE)
+
+
+def test_rarl_plays_nature_in_the_convention_it_trains(monkeypatch):
+    """With nature_action="delta" the agent meets nature's model decoded as deltas too.
+
+    Every PolicyNature rarl builds is recorded: the agent's side must decode as nature learns.
+    """
+    built = []
+
+    class Recorded(PolicyNature):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            built.append(self)
+
+    monkeypatch.setattr(ns_pz.learn, "PolicyNature", Recorded)
+    small = TrainArgs(total_timesteps=64, hyperparameters={"n_steps": 64, "batch_size": 64})
+    result = rarl(
+        CARTPOLE,
+        rounds=1,
+        agent_args=small,
+        nature_args=small,
+        eval_episodes=1,
+        nature_action="delta",
+        **POLE,
+    )
+    assert [nature.action for nature in built] == ["delta"]
+    # the nature model itself acts in the delta seat's space, and is accepted there
+    seat = ns_pz.single_agent(CARTPOLE, NATURE, {DECISION: balance}, nature_action="delta", **POLE)
+    assert result.nature.action_space == seat.action_space
+    view = ns_pz.single_agent(
+        CARTPOLE, DECISION, {NATURE: PolicyNature(result.nature, action="delta")}, **POLE
+    )
+    view.reset(seed=0)
+    view.step(0)
 
 
 def test_training_is_reproducible_from_its_seed():
@@ -196,6 +238,42 @@ def test_training_arguments_that_training_sets_or_sb3_lacks_are_named():
         TrainArgs(hyperparameters=[("n_steps", 64)])
     with pytest.raises(ValueError, match="algo='common'"):
         TrainArgs(algo="common")
+    steps = TrainArgs(total_timesteps=np.int64(100)).total_timesteps
+    assert steps == 100 and type(steps) is int
+    with pytest.raises(ValueError, match="total_timesteps=100.0"):
+        TrainArgs(total_timesteps=100.0)
+
+
+def test_episode_returns_takes_every_kind_of_policy():
+    """Callables, SB3-style models and (in an agent's view) ns_pz agents; agents elsewhere not."""
+    lake = ns_pz.single_agent("ns_pz/FrozenLake-v0", DECISION, **LAKE)
+    planner = SnapshotValueIteration(gamma=0.99)
+    assert episode_returns(lake, planner, [0, 1]) == episode_returns(lake, planner, [0, 1])
+    assert len(episode_returns(lake, lambda obs: 1, [0, 1])) == 2
+    seat = ns_pz.single_agent("ns_pz/FrozenLake-v0", NATURE, {DECISION: planner}, **LAKE)
+    with pytest.raises(TypeError, match="ns_pz Agent"):
+        episode_returns(seat, planner, [0])
+    with pytest.raises(TypeError, match="policy=3"):
+        episode_returns(lake, 3, [0])
+
+
+def test_sampling_opponents_follow_the_seed_and_leave_torchs_generator_alone():
+    """SB3 opponents asked with deterministic=False sample from the seed: one seed, one run."""
+    import torch
+
+    agent_env = ns_pz.single_agent(CARTPOLE, DECISION, **POLE)
+    agent = make_model(agent_env, TrainArgs(hyperparameters=PPO_SMALL), seed=0)
+    nature_env = ns_pz.single_agent(
+        CARTPOLE, NATURE, {DECISION: agent}, deterministic=False, **POLE
+    )
+    zero = np.zeros(nature_env.action_space.shape, np.float32)
+    torch.manual_seed(123)
+    before = torch.random.get_rng_state()
+    first = episode_returns(nature_env, lambda obs: zero, [0, 1, 2])
+    assert torch.equal(torch.random.get_rng_state(), before)
+    torch.manual_seed(7)  # another global state: the same run
+    assert episode_returns(nature_env, lambda obs: zero, [0, 1, 2]) == first
+    assert episode_returns(nature_env, lambda obs: zero, [3, 4, 5]) != first
 
 
 def test_training_leaves_no_log_folders_and_honours_verbose(tmp_path, monkeypatch, capsys):

@@ -320,12 +320,158 @@ def test_replay_reference_of_the_agent_itself_has_no_regret_on_a_deterministic_e
         ("agent", {"natur": lean_nature}, {}, "seat 'natur'"),
         ("monitor", {"agent": balance}, {}, "monitor_reward=None"),
         ("nature", {"agent": 3}, {}, "cannot drive the agent seat"),
+        # an option outside its values, whoever learns
+        ("agent", {}, {"nature_reward": "bogus"}, "nature_reward='bogus'"),
+        ("agent", {}, {"nature_action": "bogus"}, "nature_action='bogus'"),
+        ("nature", {"agent": balance}, {"monitor_reward": "bogus"}, "monitor_reward='bogus'"),
+        ("agent", {}, {"nature_observes_state": "no"}, "nature_observes_state='no'"),
+        ("agent", {}, {"default_step": 5}, "default_step=5"),
+        ("agent", {}, {"deterministic": "no"}, "deterministic='no'"),
+        # a schedule for the seat that learns, or a seat given twice
+        ("nature", {"agent": balance}, {"nature": ns_pz.nature.RandomNature()}, "is the learner"),
+        (
+            "monitor",
+            {"agent": balance},
+            {"monitor": ns_pz.monitor.OracleMonitor(), "monitor_reward": "detection"},
+            "is the learner",
+        ),
+        (
+            "agent",
+            {"nature": lean_nature},
+            {"nature": ns_pz.nature.RandomNature()},
+            "both say who plays 'nature'",
+        ),
+        # options for a seat they would not reach
+        ("agent", {}, {"nature_reward": "cooperative"}, "apply only when nature learns"),
+        ("agent", {}, {"monitor_reward": "detection"}, "only when the monitor learns"),
+        ("nature", {"agent": balance}, {"monitor_reward": "detection"}, "monitor learns"),
+        ("monitor", {"agent": balance}, {"nature_reward": "regret"}, "nature learns"),
+        ("agent", {}, {"nature_action": "delta"}, "apply only to a learning nature"),
+        (
+            "agent",
+            {"nature": PolicyNature(lean_nature)},
+            {"nature_action": "delta"},
+            r"nature_action='delta' \(its own: 'normalized'\)",
+        ),
     ],
 )
 def test_single_agent_refuses_bad_seats(learner, policies, kwargs, match):
-    """Unknown learners and seats, a missing agent, an unusable policy: clear errors."""
+    """Bad seats, missing or unusable policies, options out of range or unheard: clear errors."""
     with pytest.raises((ValueError, TypeError), match=match):
         ns_pz.single_agent("ns_pz/CartPole-v0", learner, policies, **kwargs)
+
+
+def test_seat_options_that_reach_their_seat_are_taken():
+    """Conventions for a bare nature policy, or matching a PolicyNature's own, are accepted."""
+    for policy in (lean_nature, PolicyNature(lean_nature, observes_state=True)):
+        env = ns_pz.single_agent(
+            "ns_pz/CartPole-v0", "agent", {NATURE: policy}, nature_observes_state=True
+        )
+        env.reset(seed=0)
+        env.step(0)
+    # A PolicyNature of another convention, the options left at their defaults: its own rule.
+    delta = PolicyNature(lambda obs: np.zeros(6), action="delta")
+    ns_pz.single_agent("ns_pz/CartPole-v0", "agent", {NATURE: delta}).reset(seed=0)
+
+
+def test_a_stateful_monitor_reward_is_copied_per_environment():
+    """One DetectionReward handed to several seat envs: each keeps its own episode state."""
+    from ns_pz.seats import DetectionReward
+
+    shared = DetectionReward(2.0)
+    kwargs = {"notification": "basic", "monitor_reward": shared}
+    envs = [ns_pz.single_agent("ns_pz/CartPole-v0", MONITOR, {DECISION: balance}, **kwargs)]
+    envs.append(ns_pz.single_agent("ns_pz/CartPole-v0", MONITOR, {DECISION: balance}, **kwargs))
+    rewards = [env.unwrapped._monitor_reward for env in envs]
+    assert rewards[0] is not shared and rewards[1] is not shared and rewards[0] is not rewards[1]
+    assert rewards[0].false_alarm_cost == 2.0
+
+
+def test_learner_seats_render_and_report_the_ground_truth():
+    """render_mode and ground_truth_info reach a learner seat's env, as they do the view."""
+    lake = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        NATURE,
+        {DECISION: lambda obs: 1},
+        render_mode="ansi",
+        ground_truth_info=True,
+        **LAKE,
+    )
+    assert lake.render_mode == "ansi" and "ansi" in lake.metadata["render_modes"]
+    _, info = lake.reset(seed=0)
+    assert isinstance(lake.render(), str) and set(info["theta"]) == {"slip"}
+    _, _, _, _, info = lake.step(np.ones(lake.action_space.shape, np.float32))
+    assert info["theta"]["slip"] == lake.unwrapped.process.last_theta.slip
+    frames = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0",
+        MONITOR,
+        {DECISION: lambda obs: 1},
+        monitor_reward="detection",
+        render_mode="rgb_array",
+        **LAKE,
+    )
+    frames.reset(seed=0)
+    frame = frames.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3
+    with pytest.raises(ValueError, match="render_mode"):
+        ns_pz.single_agent("ns_pz/CartPole-v0", NATURE, {DECISION: balance}, render_mode="ansi")
+
+
+def test_policy_nature_and_monitor_refuse_bad_arguments():
+    """Types are checked when the policy is built, not at its first move."""
+    with pytest.raises(TypeError, match="observes_state='no'"):
+        PolicyNature(lean_nature, observes_state="no")
+    with pytest.raises(ValueError, match="default_step=5"):
+        PolicyNature(lean_nature, default_step=5)
+    with pytest.raises(TypeError, match="deterministic='no'"):
+        PolicyNature(lean_nature, deterministic="no")
+    with pytest.raises(TypeError, match=r"PolicyNature\(policy\)=None"):
+        PolicyNature(None)
+    with pytest.raises(TypeError, match="deterministic=1"):
+        PolicyMonitor(push_left, deterministic=1)
+    with pytest.raises(TypeError, match=r"PolicyMonitor\(policy\)=3"):
+        PolicyMonitor(3)
+
+
+class _Spaced:
+    """A policy that carries its own spaces, as an SB3 model does."""
+
+    def __init__(self, observation_space, action_space):
+        self.observation_space = observation_space
+        self.action_space = action_space
+
+    def predict(self, observation, deterministic=True):
+        return self.action_space.sample() * 0, None
+
+
+def test_a_policy_trained_in_other_spaces_is_refused_at_its_first_move():
+    """A model of another action convention, observation or family is refused, not misread.
+
+    A nature model of the delta convention (or without the state) put in as normalised, or a
+    monitor model of another family.
+    """
+    seat = ns_pz.single_agent(
+        "ns_pz/CartPole-v0", NATURE, {DECISION: balance}, nature_action="delta"
+    )
+    delta_model = _Spaced(seat.observation_space, seat.action_space)
+    view = ns_pz.single_agent("ns_pz/CartPole-v0", DECISION, {NATURE: PolicyNature(delta_model)})
+    with pytest.raises(ValueError, match=r"(?s)action space Box.*action='normalized'"):
+        view.reset(seed=0)
+    seen = ns_pz.single_agent(
+        "ns_pz/CartPole-v0", NATURE, {DECISION: balance}, nature_observes_state=True
+    )
+    state_model = _Spaced(seen.observation_space, seen.action_space)
+    view = ns_pz.single_agent("ns_pz/CartPole-v0", DECISION, {NATURE: PolicyNature(state_model)})
+    with pytest.raises(ValueError, match="observation space"):
+        view.reset(seed=0)
+    matching = PolicyNature(delta_model, action="delta")
+    ns_pz.single_agent("ns_pz/CartPole-v0", DECISION, {NATURE: matching}).reset(seed=0)
+    monitor = ns_pz.single_agent(
+        "ns_pz/FrozenLake-v0", MONITOR, {DECISION: lambda obs: 1}, monitor_reward="detection"
+    )
+    lake_monitor = PolicyMonitor(_Spaced(monitor.observation_space, monitor.action_space))
+    with pytest.raises(ValueError, match="PolicyMonitor's policy"):
+        ns_pz.single_agent("ns_pz/CartPole-v0", DECISION, {MONITOR: lake_monitor}).reset(seed=0)
 
 
 def test_learner_agent_gets_policy_nature_and_monitor():

@@ -9,8 +9,14 @@ import numpy as np
 
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import Flags, Monitor, Sizes, as_flags
+from ns_pz.observations import monitor_flags_space, monitor_observation_space
 from ns_pz.params import Params
-from ns_pz.seat_policies import call_policy, check_policy
+from ns_pz.seat_policies import (
+    call_policy,
+    check_deterministic,
+    check_policy,
+    check_policy_spaces,
+)
 
 
 class PolicyMonitor(Monitor):
@@ -22,17 +28,33 @@ class PolicyMonitor(Monitor):
 
     Args:
         policy: A callable ``obs -> flags`` or an SB3-style model.
-        deterministic: Passed to ``predict``.
+        deterministic: Passed to ``predict``; sampling (``False``) draws from the monitor's
+            generator, so one seed reproduces it.
+
+    Raises:
+        TypeError: ``policy`` cannot act, or ``deterministic`` is not a bool.
     """
 
     def __init__(self, policy: Any, *, deterministic: bool = True) -> None:
-        check_policy(policy, "monitor")
+        check_policy(policy, "monitor", "PolicyMonitor(policy)")
         self.policy = policy
-        self.deterministic = deterministic
+        self.deterministic = check_deterministic(deterministic)
         self._count = 0
 
     def bind(self, family: EnvFamily, theta0: Params) -> None:
-        """Learn the number of parameters (one flag each)."""
+        """Learn the number of parameters (one flag each).
+
+        Raises:
+            ValueError: The policy's own spaces (an SB3 model's) are not the monitor seat's for
+                ``family``.
+        """
+        check_policy_spaces(
+            self.policy,
+            monitor_observation_space(family),
+            monitor_flags_space(family.params_cls),
+            "PolicyMonitor's policy",
+            " (was it trained on another environment?)",
+        )
         self._count = len(family.params_cls.names())
 
     def notify(
@@ -47,7 +69,7 @@ class PolicyMonitor(Monitor):
         Raises:
             ValueError: The policy's answer is not one 0/1 flag per parameter.
         """
-        answer = call_policy(self.policy, observation, deterministic=self.deterministic)
+        answer = call_policy(self.policy, observation, deterministic=self.deterministic, rng=rng)
         flags = as_flags(answer, self._count)
         if flags is None:
             raise ValueError(

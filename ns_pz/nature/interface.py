@@ -56,6 +56,20 @@ DEFAULT_STEP = 0.01
 """Per-step allowance of a parameter without a Lipschitz bound, as a fraction of its θ_0 size."""
 
 
+def check_default_step(default_step: Any) -> float:
+    """``default_step`` as a float, if it is a number in (0, 1].
+
+    Raises:
+        TypeError: Not a real number.
+        ValueError: Outside (0, 1].
+    """
+    if isinstance(default_step, bool) or not isinstance(default_step, (int, float)):
+        raise TypeError(f"default_step={default_step!r} must be a number in (0, 1]")
+    if not 0.0 < default_step <= 1.0:
+        raise ValueError(f"default_step={default_step!r} must be in (0, 1]")
+    return float(default_step)
+
+
 class NatureInterface:
     """Observation encoding and action decoding of nature's seat for one family and constraints.
 
@@ -88,10 +102,7 @@ class NatureInterface:
             raise ValueError(f"nature_action={action!r}; allowed: {NATURE_ACTIONS}")
         if not isinstance(observes_state, bool):
             raise TypeError(f"nature_observes_state={observes_state!r} must be a bool")
-        if isinstance(default_step, bool) or not isinstance(default_step, (int, float)):
-            raise TypeError(f"default_step={default_step!r} must be a number in (0, 1]")
-        if not 0.0 < default_step <= 1.0:
-            raise ValueError(f"default_step={default_step!r} must be in (0, 1]")
+        check_default_step(default_step)
         params_cls = family.params_cls
         self.action_mode = action
         self.observes_state = observes_state

@@ -1,9 +1,9 @@
 """A nature driven by any policy over nature's observation: a trained adversary, put anywhere.
 
 :class:`PolicyNature` is a :class:`~ns_pz.nature.policies.Nature`, so it goes wherever a
-schedule goes — ``gym.make(..., nature=...)``, :func:`ns_pz.make`, the experiment runner, the
-exact tools — and sees and acts exactly as a learner in nature's seat does, through the one
-:class:`~ns_pz.nature.interface.NatureInterface` of the process it drives.
+schedule goes — ``gym.make(..., nature=...)``, :func:`ns_pz.make`, :func:`ns_pz.make_vec`,
+:func:`ns_pz.single_agent` — and sees and acts exactly as a learner in nature's seat does,
+through the one :class:`~ns_pz.nature.interface.NatureInterface` of the process it drives.
 """
 
 from __future__ import annotations
@@ -12,10 +12,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS
+from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS, NatureInterface, check_default_step
 from ns_pz.nature.policies import Nature, Proposal
 from ns_pz.params import Params
-from ns_pz.seat_policies import call_policy, check_policy
+from ns_pz.seat_policies import (
+    call_policy,
+    check_deterministic,
+    check_policy,
+    check_policy_spaces,
+)
 
 if TYPE_CHECKING:
     from ns_pz.process import NSProcess
@@ -31,7 +36,13 @@ class PolicyNature(Nature):
         observes_state: Whether its observation includes the agent's state and last action.
         default_step: Allowance of a parameter without a Lipschitz bound, as a fraction of its
             size at θ_0 (as in training).
-        deterministic: Passed to ``predict``.
+        deterministic: Passed to ``predict``; sampling (``False``) draws from nature's generator,
+            so one seed reproduces it.
+
+    An SB3 model's own spaces are checked against nature's seat in the environment it is put
+    in: a model trained with another ``action`` or ``observes_state`` is refused at its first
+    move (where the two conventions' bounds coincide, as on a grid's slip vector, nothing tells
+    them apart).
 
     Raises:
         TypeError / ValueError: An argument outside its allowed values.
@@ -46,20 +57,39 @@ class PolicyNature(Nature):
         default_step: float = DEFAULT_STEP,
         deterministic: bool = True,
     ) -> None:
-        check_policy(policy, "nature")
+        check_policy(policy, "nature", "PolicyNature(policy)")
         if action not in NATURE_ACTIONS:
             raise ValueError(f"action={action!r}; allowed: {NATURE_ACTIONS}")
+        if not isinstance(observes_state, bool):
+            raise TypeError(f"observes_state={observes_state!r} must be a bool")
         self.policy = policy
         self.action = action
-        self.observes_state = bool(observes_state)
-        self.default_step = default_step
-        self.deterministic = deterministic
+        self.observes_state = observes_state
+        self.default_step = check_default_step(default_step)
+        self.deterministic = check_deterministic(deterministic)
+        self._checked: NatureInterface | None = None  # the interface the spaces were checked on
 
     def act(self, process: NSProcess) -> Proposal:
-        """Observe ``process`` as a learner in nature's seat would, and decode the action."""
+        """Observe ``process`` as a learner in nature's seat would, and decode the action.
+
+        Raises:
+            ValueError: The policy's own spaces are not nature's in this environment.
+        """
         interface = process.nature_interface(self.action, self.observes_state, self.default_step)
+        if interface is not self._checked:
+            check_policy_spaces(
+                self.policy,
+                interface.observation_space,
+                interface.action_space,
+                "PolicyNature's policy",
+                f" (action={self.action!r}, observes_state={self.observes_state}: was it "
+                "trained with other ones, or on another environment?)",
+            )
+            self._checked = interface
         observation = interface.observe(process)
-        action = call_policy(self.policy, observation, deterministic=self.deterministic)
+        action = call_policy(
+            self.policy, observation, deterministic=self.deterministic, rng=process.nature_rng
+        )
         return interface.proposal(np.asarray(action), process.theta)
 
     def propose(
@@ -76,4 +106,7 @@ class PolicyNature(Nature):
         )
 
     def __repr__(self) -> str:
-        return f"PolicyNature({self.policy!r}, action={self.action!r})"
+        return (
+            f"PolicyNature({self.policy!r}, action={self.action!r}, "
+            f"observes_state={self.observes_state!r})"
+        )
