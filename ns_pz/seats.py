@@ -34,7 +34,7 @@ from ns_pz.process import AGENTS, DECISION, MONITOR, NATURE, NSProcess
 from ns_pz.regret import NATURE_REWARDS, NatureReward, RegretReference, default_reference
 from ns_pz.rendering import Renderer, render_metadata
 from ns_pz.seat_policies import DecisionPolicy, check_deterministic, check_policy
-from ns_pz.views import reset_seeded
+from ns_pz.views import ProcessEnv, reset_seeded
 
 MonitorRewardFn = Callable[[NSProcess, tuple], float]
 """``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
@@ -137,17 +137,15 @@ def single_agent(
             raise ValueError(f"policies has a seat {seat!r}; allowed: {AGENTS}")
     if learner in policies:
         raise ValueError(f"policies[{learner!r}] is given, but {learner!r} is the learner")
-    _check_seat_options(
-        learner,
-        policies,
-        env_kwargs,
-        nature_reward=nature_reward,
-        regret_reference=regret_reference,
-        nature_action=nature_action,
-        nature_observes_state=nature_observes_state,
-        default_step=default_step,
-        monitor_reward=monitor_reward,
-    )
+    options: dict[str, Any] = {
+        "nature_reward": nature_reward,
+        "regret_reference": regret_reference,
+        "nature_action": nature_action,
+        "nature_observes_state": nature_observes_state,
+        "default_step": default_step,
+        "monitor_reward": monitor_reward,
+    }
+    _check_seat_options(learner, policies, env_kwargs, **options)
     check_deterministic(deterministic)
     if NATURE in policies:
         env_kwargs["nature"] = _as_nature(
@@ -164,20 +162,10 @@ def single_agent(
         )
     if learner == DECISION:
         return make_gym(env, **env_kwargs)
-    seat_options = {k: env_kwargs.pop(k) for k in _SEAT_ENV_KWARGS if k in env_kwargs}
+    options.update({k: env_kwargs.pop(k) for k in _SEAT_ENV_KWARGS if k in env_kwargs})
     view = make_gym(env, **env_kwargs)
-    return SeatEnv(
-        view.process,
-        learner,
-        DecisionPolicy(policies[DECISION], deterministic=deterministic),
-        nature_reward=nature_reward,
-        regret_reference=regret_reference,
-        nature_action=nature_action,
-        nature_observes_state=nature_observes_state,
-        default_step=default_step,
-        monitor_reward=monitor_reward,
-        **seat_options,
-    )
+    decide = DecisionPolicy(policies[DECISION], deterministic=deterministic)
+    return SeatEnv(view.process, learner, decide, **options)
 
 
 _SEAT_ENV_KWARGS = ("render_mode", "ground_truth_info")
@@ -279,7 +267,7 @@ _DEFAULT_CONVENTIONS = {
 }
 
 
-class SeatEnv(gym.Env[Any, Any]):
+class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
     """A Gymnasium environment in which nature or the monitor learns (see :func:`single_agent`).
 
     Args:
@@ -392,23 +380,6 @@ class SeatEnv(gym.Env[Any, Any]):
         if self.render_mode == "human":
             self.render()
         return self._observe(), float(reward), terminated, truncated, self._info()
-
-    def render(self) -> Any:
-        """The current state in :attr:`render_mode`, as the view renders it.
-
-        Raises:
-            ResetNeeded: Called before the first reset.
-        """
-        return self._renderer.render(self._process)
-
-    def close(self) -> None:
-        """Close the render window, if one is open."""
-        self._renderer.close()
-
-    def _info(self) -> dict[str, Any]:
-        if self._ground_truth_info:
-            return {"theta": self._process.last_theta.as_dict()}
-        return {}
 
     def _observe(self) -> Any:
         process = self._process

@@ -32,7 +32,37 @@ from ns_pz.process import DECISION, GroundTruth, NSProcess, check_seed
 from ns_pz.rendering import Renderer, render_metadata
 
 
-class NSGymEnv(gym.Env[dict[str, Any], Any]):
+class ProcessEnv:
+    """What every single-agent env over a process shares: rendering it and the ground-truth info.
+
+    The Gymnasium view and the learner seats' envs (:mod:`ns_pz.seats`) set ``_process``,
+    ``_renderer`` and ``_ground_truth_info``.
+    """
+
+    _process: NSProcess
+    _renderer: Renderer
+    _ground_truth_info: bool
+
+    def render(self) -> Any:
+        """The current state in ``render_mode``: a frame, text, or ``None`` (human, none).
+
+        Raises:
+            ResetNeeded: Called before the first reset.
+        """
+        return self._renderer.render(self._process)
+
+    def close(self) -> None:
+        """Close the render window, if one is open."""
+        self._renderer.close()
+
+    def _info(self) -> dict[str, Any]:
+        """``info``: the θ of the last transition if ``ground_truth_info`` asked for it."""
+        if self._ground_truth_info:
+            return {"theta": self._process.last_theta.as_dict()}
+        return {}
+
+
+class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
     """A non-stationary environment as an ordinary Gymnasium env.
 
     Args:
@@ -114,18 +144,6 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
             bool(truncated),
             self._info(),
         )
-
-    def render(self) -> Any:
-        """The current state in :attr:`render_mode`: a frame, text, or ``None`` (human, none).
-
-        Raises:
-            ResetNeeded: Called before the first reset.
-        """
-        return self._renderer.render(self._process)
-
-    def close(self) -> None:
-        """Close the render window, if one is open."""
-        self._renderer.close()
 
     # -- ns_pz extras -----------------------------------------------------------------------
     @property
@@ -232,11 +250,6 @@ class NSGymEnv(gym.Env[dict[str, Any], Any]):
         if self.render_mode == "human":
             self.render()
         return outcome
-
-    def _info(self) -> dict[str, Any]:
-        if self._ground_truth_info:
-            return {"theta": self._process.last_theta.as_dict()}
-        return {}
 
     def __repr__(self) -> str:
         process = self._process
