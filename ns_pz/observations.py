@@ -84,6 +84,7 @@ class ObservationBuilder:
         self._zero_sizes = np.zeros(count, np.float32)
         self._zero_clock = np.zeros(1, np.float32)
         self._flag_arrays: dict[tuple, np.ndarray] = {}
+        self._in_bounds = _BoundedCopy(family.action_space)
 
     def agent(self, state: Any, t: int, flags: tuple, sizes: tuple, no_change: tuple) -> dict:
         """The decision agent's observation: one flag and one size per parameter.
@@ -136,7 +137,7 @@ class ObservationBuilder:
         clock[0] = process.t
         action = self._null_action if process.last_action is None else process.last_action
         if type(action) is np.ndarray:  # the agent's own array, or our template: a copy
-            action = action.copy()
+            action = self._in_bounds(action)
         return {
             "last_state": self._observe(process.last_state),
             "last_action": action,
@@ -149,6 +150,29 @@ class ObservationBuilder:
 _FLAG_PATTERNS_KEPT = 64
 """Flag patterns whose arrays a builder keeps (changes usually repeat a few patterns)."""
 _CLOCK = spaces.Box(0.0, np.inf, (1,), np.float32)
+
+
+class _BoundedCopy:
+    """Gives a new copy of a Box action, clipped into the space (a class: envs are pickled).
+
+    The dynamics clip an out-of-bounds action (as Gymnasium's do) while the reward sees it as
+    given; an observation shows the action clipped, so it stays inside its declared space.
+    """
+
+    def __init__(self, space: spaces.Space[Any]) -> None:
+        box: Any = space if isinstance(space, spaces.Box) else None
+        self._low = None if box is None else box.low
+        self._high = None if box is None else box.high
+        self._scalar = box is not None and box.shape == (1,)
+        if self._scalar:
+            self._lo, self._hi = float(box.low[0]), float(box.high[0])
+
+    def __call__(self, action: np.ndarray) -> np.ndarray:
+        if self._low is None:
+            return action.copy()
+        if self._scalar and self._lo <= action.item() <= self._hi:
+            return action.copy()
+        return np.clip(action, self._low, self._high)
 
 
 def _null_element(space: spaces.Space[Any]) -> Any:

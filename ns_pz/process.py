@@ -130,10 +130,13 @@ class NSProcess:
             raise TypeError(f"constraints={constraints!r} must be a NatureConstraints")
         self.constraints.check_names(family.params_cls)
         if max_episode_steps is not None:
-            if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, int):
+            if isinstance(max_episode_steps, bool) or not isinstance(
+                max_episode_steps, (int, np.integer)
+            ):
                 raise TypeError(f"max_episode_steps={max_episode_steps!r} must be an int or None")
             if max_episode_steps < 1:
                 raise ValueError(f"max_episode_steps={max_episode_steps!r} must be >= 1")
+            max_episode_steps = int(max_episode_steps)
         self.max_episode_steps = max_episode_steps
 
         self.param_names = family.params_cls.names()
@@ -173,7 +176,8 @@ class NSProcess:
         self.last_state: State = None
         self.last_change: tuple[Params, Params] | None = None
         """(θ before, θ after) of the change behind the last transition, if there was one."""
-        self.notice: tuple[tuple, tuple] = (self.no_change, self.no_change)
+        self._quiet = (self.no_change, self.no_change)
+        self.notice: tuple[tuple, tuple] = self._quiet
         """The notification of this step (flags, sizes), masked to the level; zeros until the
         monitor's turn and after the episode ends."""
         self.spent: dict[str, float] = {}
@@ -233,6 +237,10 @@ class NSProcess:
                 )
             if options.get("params") is not None:
                 theta0 = _check_params(self.family, options["params"])
+        # First, as it may refuse the episode (a detector bound to another θ_0).
+        monitor = self.monitor
+        same = theta0 is self.base_theta0 or theta0 == self.base_theta0
+        monitor_memory = monitor.initial_memory() if same else monitor.episode_memory(theta0)
         if self.env_rng is None:
             self.seed(None)
         self.state = self.family.initial_state_under(
@@ -252,7 +260,7 @@ class NSProcess:
         self.change_values = []
         carried, self.carried_nature_memory = self.carried_nature_memory, None
         self.nature_memory = self.nature.initial_memory() if carried is None else carried
-        self.monitor_memory = self.monitor.initial_memory()
+        self.monitor_memory = monitor_memory
         self._pending = None
         self.started = True
         self.done = False
@@ -504,8 +512,7 @@ class NSProcess:
         self.ended = (bool(terminated), truncated)
         self.done = terminated or truncated
         self.turn = NATURE
-        if self.done:
-            self.notice = (self.no_change, self.no_change)
+        self.notice = self._quiet  # until the monitor's turn of the next step
         return reward, terminated, truncated
 
     def play_until(
@@ -598,9 +605,19 @@ class NSProcess:
             return self.theta0
         monitor = self.monitor
         if monitor.reads_ground_truth:
-            return self.last_theta
+            told = monitor.told_through(self.monitor_memory)
+            return self.last_theta if told is None else self.theta_at(told)
         believed = monitor.believed_theta(self.monitor_memory)
         return self.theta0 if believed is None else believed
+
+    def theta_at(self, transition: int) -> Params:
+        """The θ transition ``transition`` of this episode ran under (θ_0 for ``-1``)."""
+        theta = self.theta0
+        for when, value in zip(self.change_times, self.change_values, strict=True):
+            if when > transition:
+                break
+            theta = value
+        return theta
 
     def planning_rng(self) -> np.random.Generator:
         """A fresh generator for one planning model, from the seed (deterministic sequence)."""
@@ -725,6 +742,8 @@ def mask_notification(
 ) -> tuple[tuple, tuple]:
     """Keep what the level shows of a notification, after checking it.
 
+    A size is shown only with its flag: sizes of unflagged parameters become 0.
+
     Args:
         level: The notification level.
         flags: One 0/1 flag per parameter.
@@ -749,7 +768,9 @@ def mask_notification(
     shown_flags = tuple([1 if f else 0 for f in flags])
     if not level.shows_sizes:
         return shown_flags, no_change
-    return shown_flags, tuple([float(s) for s in sizes])
+    # A size speaks of a flagged change: an unflagged parameter's is not shown (as no flags at
+    # all show no sizes).
+    return shown_flags, tuple([float(s) if f else 0.0 for f, s in zip(flags, sizes, strict=True)])
 
 
 def _check_params(family: EnvFamily, params: Params | Mapping[str, Any] | None) -> Params:

@@ -34,7 +34,7 @@ from ns_pz.process import AGENTS, DECISION, MONITOR, NATURE, NSProcess
 from ns_pz.regret import NATURE_REWARDS, NatureReward, RegretReference, default_reference
 from ns_pz.rendering import Renderer, render_metadata
 from ns_pz.seat_policies import DecisionPolicy, check_deterministic, check_policy
-from ns_pz.views import ProcessEnv, reset_seeded
+from ns_pz.views import ProcessEnv, check_flag, reset_seeded
 
 MonitorRewardFn = Callable[[NSProcess, tuple], float]
 """``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
@@ -306,7 +306,7 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
         self._renderer = Renderer(process.family, render_mode)
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, **render_metadata(process.family)}
-        self._ground_truth_info = bool(ground_truth_info)
+        self._ground_truth_info = check_flag("ground_truth_info", ground_truth_info)
         if learner == NATURE:
             if nature_reward == "regret" and regret_reference is None:
                 regret_reference = default_reference(process.family)

@@ -398,7 +398,14 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
                     f"[{space.start}, {space.start + space.n})"
                 )
             return array.astype(np.int64, copy=False)
-        return array
+        shape = (self.num_envs, *space.shape)  # type: ignore[misc]
+        if array.shape != shape or array.dtype.kind not in "fiu" or not np.isfinite(array).all():
+            raise ValueError(
+                f"actions={actions!r} must be finite numbers of shape {shape} (one action of "
+                f"{space} per sub-env; values outside its bounds are clipped by the dynamics, "
+                "as in Gymnasium)"
+            )
+        return np.array(array, dtype=space.dtype)  # our own copy: rows become last actions
 
     def _transition(
         self,
@@ -466,6 +473,7 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
     ) -> None:
         check = self.family.check_action
         kernel = self.kernel
+        discrete = isinstance(self.single_action_space, gym.spaces.Discrete)
         for i in np.flatnonzero(stepping):
             process = self._processes[i]
             if outcome is None:
@@ -475,7 +483,8 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
                 states, all_rewards, terminals = outcome
                 self._states[i] = states[i]
                 result = (kernel.unpack(states[i]), float(all_rewards[i]), bool(terminals[i]))
-                reward, term, trunc = process.transition(actions[i].item(), result)
+                action = actions[i].item() if discrete else actions[i].copy()
+                reward, term, trunc = process.transition(action, result)
             rewards[i] = reward
             terminated[i] = term
             truncated[i] = trunc
@@ -530,10 +539,11 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             for i in indices:
                 self._states[i] = kernel.pack(initial(self._rngs[i]))  # type: ignore[arg-type]
         theta0 = self._theta0_row
-        if options is not None and options.get("params") is not None:
+        if options is not None:
             process = self._processes[0]
-            process.reset(options)  # checks the options, as the single view does
-            theta0 = np.array(process.theta0.flat_values(), np.float64)
+            process.reset(options)  # checks the options (and warns of unknown keys) as a view
+            if options.get("params") is not None:
+                theta0 = np.array(process.theta0.flat_values(), np.float64)
         # Index arrays: a few rows restart per step, and fancy indexing by them is cheaper
         # than a boolean mask over every sub-env.
         self._theta[indices] = theta0

@@ -107,7 +107,7 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
             constraints=constraints,
             max_episode_steps=max_episode_steps,
         )
-        self._ground_truth_info = bool(ground_truth_info)
+        self._ground_truth_info = check_flag("ground_truth_info", ground_truth_info)
         self._renderer = Renderer(family, render_mode)
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, **render_metadata(family)}
@@ -163,7 +163,7 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
 
     @property
     def base_params(self) -> Params:
-        """θ_0, the parameters every episode starts from."""
+        """θ_0 of this episode: the environment's, or the one ``reset(options=...)`` gave it."""
         return self._process.theta0
 
     def set_params(self, **changes: Any) -> None:
@@ -182,7 +182,10 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
         return self._process.ground_truth()
 
     def planning_model(self) -> Any:
-        """A stationary planning model at the current state (θ_0, or θ_t at ``detailed``).
+        """A stationary planning model at the current state under the planning θ.
+
+        That θ is θ_0 at ``none`` and ``basic``; at ``detailed`` the latest θ the agent has been
+        told of (:meth:`~ns_pz.process.NSProcess.planning_theta`).
 
         Raises:
             ResetNeeded: Called before the first reset.
@@ -192,8 +195,10 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
     def get_planning_env(self) -> NSGymEnv:
         """A stationary copy of this env at the current state, as a Gymnasium env.
 
-        Its θ is θ_0 at notification levels ``none`` and ``basic`` and the current θ at
-        ``detailed``; nature is frozen in it, so stepping it never changes θ. It continues the
+        Its θ is the planning θ (:meth:`planning_model`'s): θ_0 at notification levels ``none``
+        and ``basic``; at ``detailed`` the latest θ the agent has been told of (with the oracle,
+        that of the last transition, never the one nature just chose for the next); nature is
+        frozen in it, so stepping it never changes θ. It continues the
         clock (``relative_time``) and the time limit of this episode, and draws from its own
         generator, derived from this env's seed.
 
@@ -217,8 +222,21 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
 
         Raises:
             ResetNeeded: Called before the first reset.
+            TypeError: ``theta`` is not a parameter set of this family, or a flag not a bool.
+            ValueError: ``retake_turn`` without ``keep_nature``.
         """
         process = self._process
+        params_cls = process.family.params_cls
+        if theta is not None and not isinstance(theta, params_cls):
+            raise TypeError(
+                f"theta={theta!r} must be a {params_cls.__name__} (e.g. "
+                "env.process.theta.replace(name=value)) or None"
+            )
+        for name, flag in (("keep_nature", keep_nature), ("retake_turn", retake_turn)):
+            if not isinstance(flag, bool):
+                raise TypeError(f"{name}={flag!r} must be a bool")
+        if retake_turn and not keep_nature:
+            raise ValueError("retake_turn=True needs keep_nature=True (frozen, nature never moves)")
         twin = copy.copy(self)
         if keep_nature:
             twin._process = process.continuing_copy(theta, retake_turn=retake_turn)
@@ -259,6 +277,17 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
         )
 
 
+def check_flag(name: str, value: Any) -> bool:
+    """``value`` if it is a bool.
+
+    Raises:
+        TypeError: It is not (``"no"`` or ``1`` would silently count as true or false).
+    """
+    if not isinstance(value, bool):
+        raise TypeError(f"{name}={value!r} must be a bool")
+    return value
+
+
 def reset_seeded(
     env: gym.Env[Any, Any], process: NSProcess, seed: int | None, options: dict[str, Any] | None
 ) -> NSProcess:
@@ -271,7 +300,7 @@ def reset_seeded(
     Raises:
         TypeError / ValueError: A bad seed or θ_0.
     """
-    check_seed(seed)
+    seed = check_seed(seed)  # a NumPy integer becomes an int, which Gymnasium insists on
     gym.Env.reset(env, seed=seed)
     if seed is not None or process.env_rng is None:
         process.seed(env.np_random_seed)

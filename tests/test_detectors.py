@@ -449,3 +449,115 @@ def test_planning_model_follows_the_detector_not_the_truth():
     env.step(1)
     env.step(1)  # transition 1 ran under the new θ; the detector cannot know yet
     assert env.planning_model().theta.slip == (0.7, 0.15, 0.15)
+
+
+def _slip_change_at(step: int) -> ScriptedNature:
+    update = DistributionStepWiseUpdate(
+        DiscreteScheduler([step]), update_values=[(0.1, 0.45, 0.45)]
+    )
+    return ScriptedNature({"slip": update})
+
+
+@pytest.mark.parametrize(
+    ("monitor", "told_at"),
+    [
+        (NoisyOracleMonitor(miss_probability=1.0), None),  # never told: θ_0 throughout
+        (NoisyOracleMonitor(delay=3), 5),  # the change of transition 1, reported 3 later
+        (NoisyOracleMonitor(), 2),  # the oracle's timing
+    ],
+)
+def test_a_noisy_oracle_never_hands_the_planner_a_change_it_has_not_reported(monitor, told_at):
+    """At detailed the planner gets the θ the agent has been told of, not the truth."""
+    env = ns_pz.make_gym(
+        "ns_pz/FrozenLake-v0",
+        params={"slip": (1.0, 0.0, 0.0)},
+        nature=_slip_change_at(1),
+        monitor=monitor,
+        notification="detailed",
+    )
+    env.reset(seed=0)
+    for t in range(1, 8):
+        obs, *_ = env.step(0)
+        told = told_at is not None and t >= told_at
+        expected = (0.1, 0.45, 0.45) if told else (1.0, 0.0, 0.0)
+        assert env.planning_model().theta.slip == expected, t
+        assert env.get_planning_env().process.theta.slip == expected, t
+        assert bool(obs["env_change"][0]) == (t == told_at), t
+
+
+def test_a_tabular_detector_refuses_an_episode_from_another_theta0():
+    """Its outcome tables are θ_0's: another θ_0 in reset options is refused, the same kept."""
+    env = ns_pz.make_gym(
+        "ns_pz/CliffWalking-v0",
+        monitor=TabularCusumMonitor(),
+        notification="detailed",
+        params={"slip": (0.7, 0.1, 0.1, 0.1)},
+    )
+    with pytest.raises(ValueError, match="bound to θ_0"):
+        env.reset(seed=0, options={"params": {"slip": (1.0, 0.0, 0.0, 0.0)}})
+    env.reset(seed=0, options={"params": {"slip": (0.7, 0.1, 0.1, 0.1)}})
+    oracle = ns_pz.make_gym("ns_pz/CartPole-v0", notification="detailed")
+    oracle.reset(seed=0, options={"params": {"masspole": 0.3}})  # the oracle needs no reference
+
+
+def test_the_prediction_error_detector_predicts_from_the_episodes_theta0():
+    """Its reference is a θ in its memory: an episode's own θ_0 gives no false alarm."""
+    cart = ns_pz.make_gym(
+        "ns_pz/CartPole-v0", monitor=PredictionErrorMonitor(), notification="detailed"
+    )
+    cart.reset(seed=0, options={"params": {"masspole": 0.3}})
+    assert cart.planning_model().theta.masspole == 0.3
+    alarms = 0
+    for step in range(40):
+        obs, _, terminated, truncated, _ = cart.step(step % 2)
+        alarms += int(obs["env_change"].any())
+        if terminated or truncated:
+            break
+    assert alarms == 0
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: TabularCusumMonitor(params="slip"), "list of parameter names"),
+        (lambda: TabularCusumMonitor(params=[]), "watches nothing"),
+        (lambda: TabularCusumMonitor(threshold=True), "threshold=True"),
+        (lambda: PredictionErrorMonitor(params="masspole"), "list of parameter names"),
+        (lambda: PredictionErrorMonitor(threshold=True), "threshold=True"),
+        (lambda: PredictionErrorMonitor(factors="12"), "factors='12'"),
+        (lambda: PredictionErrorMonitor(factors=[0.5, -1.0]), r"factors\[...\]=-1.0"),
+    ],
+)
+def test_detector_arguments_are_checked_by_name(make, match):
+    """A bare string, an empty list, a bool threshold: refused when the detector is built."""
+    with pytest.raises((TypeError, ValueError), match=match):
+        make()
+
+
+def test_prediction_error_refuses_noisy_dynamics():
+    """Acrobot with torque noise would alarm at every transition: refused when bound."""
+    with pytest.raises(ValueError, match="draws from its generator"):
+        ns_pz.make_gym(
+            "ns_pz/Acrobot-v0",
+            torque_noise_max=0.1,
+            monitor=PredictionErrorMonitor(),
+            notification="detailed",
+        )
+    ns_pz.make_gym("ns_pz/Acrobot-v0", monitor=PredictionErrorMonitor(), notification="detailed")
+
+
+def test_scoring_and_numpy_counts_take_integers_and_name_the_rest():
+    """NaN or strings as times, a string λ: named; NumPy integers count as ints."""
+    from ns_pz.monitor import detection_reward
+
+    with pytest.raises(ValueError, match="must hold integers"):
+        score_episode([float("nan")], [], 5)
+    with pytest.raises(ValueError, match="must hold integers"):
+        score_episode(["a"], [], 5)
+    with pytest.raises(ValueError, match="false_alarm_cost='10'"):
+        detection_reward(True, False, "10")
+    assert score_episode([1], [2], np.int64(5)).delays == (1,)
+    assert NoisyOracleMonitor(delay=np.int64(2)).delay == 2
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", max_episode_steps=np.int64(3))
+    env.reset(seed=0)
+    assert [env.step(0)[3] for _ in range(3)] == [False, False, True]

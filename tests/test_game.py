@@ -448,3 +448,51 @@ def test_the_monitor_policys_action_is_refused_out_of_its_turn() -> None:
     game.process.play_until(DECISION)  # someone else played the monitor's turn
     with pytest.raises(ValueError, match="turn"):
         game.step(action)
+
+
+def test_a_notification_is_seen_on_exactly_one_agent_observation():
+    """Between the agent's transition and the monitor's next turn the agent hears nothing.
+
+    The flag of the change at step 1 is on the observation after the monitor's turn of step 2,
+    and not again after nature's turn of step 3 (it had lingered until the next monitor turn).
+    """
+    nature = ScriptedNature({"masspole": IncrementUpdate(DiscreteScheduler([1]), k=0.1)})
+    game = ns_pz.make("ns_pz/CartPole-v0", nature=nature, notification="detailed")
+    game.reset(seed=0)
+    seen = []
+    for _ in range(4):
+        game.step(game.policy_action(NATURE))
+        seen.append(int(game.observe(DECISION)["env_change"].any()))  # before the monitor
+        game.step(game.policy_action(MONITOR))
+        seen.append(int(game.observe(DECISION)["env_change"].any()))  # after it
+        game.step(0)
+    assert seen == [0, 0, 0, 0, 0, 1, 0, 0]
+
+
+def test_an_out_of_bounds_action_is_observed_clipped_inside_the_spaces():
+    """An action beyond the bounds is observed clipped, inside nature's and the monitor's spaces.
+
+    The dynamics clip it (as Gymnasium's do); the reward sees it as given.
+    """
+    game = ns_pz.make("ns_pz/Pendulum-v0", nature_observes_state=True)
+    game.reset(seed=0)
+    game.step(game.policy_action(NATURE))
+    game.step(game.policy_action(MONITOR))
+    game.step(np.array([5.0], np.float32))
+    nature_obs = game.observe(NATURE)
+    assert game.observation_space(NATURE).contains(nature_obs) and nature_obs[-1] == 2.0
+    game.step(game.policy_action(NATURE))
+    monitor_obs = game.observe(MONITOR)
+    assert game.observation_space(MONITOR).contains(monitor_obs)
+    assert monitor_obs["last_action"].tolist() == [2.0]
+
+
+def test_a_size_is_shown_only_with_its_flag():
+    """A monitor action sizing an unflagged parameter shows no size for it."""
+    game = ns_pz.make("ns_pz/CartPole-v0", notification="detailed")
+    game.reset(seed=0)
+    game.step(game.policy_action(NATURE))
+    flags = np.array([1, 0, 0, 0, 0, 0], np.int8)
+    sizes = np.array([0.25, 0.5, 0, 0, 0, 0], np.float32)
+    game.step({"env_change": flags, "delta_change": sizes})
+    assert game.observe(DECISION)["delta_change"].tolist() == [0.25, 0, 0, 0, 0, 0]

@@ -368,3 +368,44 @@ def test_mountain_car_continuous_kernel_at_the_walls_the_goal_and_out_of_range_p
             walls += float(singles[i]["state"][0]) == np.float32(-1.2)
         _same(obs, singles)
     assert goals > 0 and walls > 0
+
+
+def test_continuous_actions_are_checked_and_kept_as_arrays_per_sub_env() -> None:
+    """NaN, a wrong shape or a missing row are refused, as by the view; arrays are kept.
+
+    With a detector (processes engine) each sub-env keeps its own float32 array as the last
+    action.
+    """
+    from ns_pz.monitor import PredictionErrorMonitor
+
+    vec = make_vec(
+        "ns_pz/Pendulum-v0", 2, monitor=PredictionErrorMonitor(), notification="detailed"
+    )
+    vec.reset(seed=0)
+    actions = np.array([[0.5], [-0.25]], np.float32)
+    vec.step(actions)
+    actions[:] = 9.0  # the caller's buffer, reused: nothing of ours may change
+    last = [process.last_action for process in vec._processes]
+    assert [a.tolist() for a in last] == [[0.5], [-0.25]] and last[0].dtype == np.float32
+    for bad in (
+        np.array([[np.nan], [0.0]], np.float32),
+        np.array([[0.5]], np.float32),
+        np.array([0.5, 0.5], np.float32),
+        np.array([["a"], ["b"]]),
+    ):
+        with pytest.raises(ValueError, match=r"shape \(2, 1\)"):
+            vec.step(bad)
+    plain = make_vec("ns_pz/MountainCarContinuous-v0", 2)
+    plain.reset(seed=0)
+    with pytest.raises(ValueError, match=r"shape \(2, 1\)"):
+        plain.step(np.zeros((2, 3), np.float32))
+
+
+def test_the_array_engine_checks_reset_options_as_the_view_does() -> None:
+    """Unknown keys warn (they were ignored silently), a list is refused."""
+    vec = make_vec("ns_pz/CartPole-v0", 2)
+    vec.reset(seed=0)
+    with pytest.warns(UserWarning, match="reset_mask"):
+        vec.reset(options={"reset_mask": np.array([True, False])})
+    with pytest.raises(TypeError, match="options=\\[1\\]"):
+        vec.reset(options=[1])

@@ -326,3 +326,21 @@ def test_the_oracle_notification_is_the_true_change_of_the_last_transition(
         shown = np.asarray(sizes, np.float32) if level == "detailed" else np.zeros(len(sizes))
         assert obs["delta_change"].tolist() == shown.tolist()
         previous = ran_under
+
+
+def test_view_flags_and_branches_are_checked_and_numpy_seeds_accepted():
+    """Truthy strings are no flags; a branch takes this family's θ; np.int64 seeds like ints."""
+    with pytest.raises(TypeError, match="ground_truth_info='no'"):
+        gym.make("ns_pz/CartPole-v0", ground_truth_info="no")
+    env = gym.make("ns_pz/CartPole-v0").unwrapped
+    first, _ = env.reset(seed=np.int64(3))
+    again, _ = env.reset(seed=3)
+    np.testing.assert_array_equal(first["state"], again["state"])
+    with pytest.raises(TypeError, match="must be a CartPoleParams"):
+        env.branch(theta={"masspole": 0.5})
+    with pytest.raises(TypeError, match="keep_nature='no'"):
+        env.branch(keep_nature="no")
+    with pytest.raises(ValueError, match="retake_turn=True needs keep_nature=True"):
+        env.branch(retake_turn=True)
+    twin = env.branch(theta=env.base_params.replace(masspole=0.5))
+    assert twin.process.theta.masspole == 0.5

@@ -44,7 +44,15 @@ from typing import Any
 import numpy as np
 
 from ns_pz.family import EnvFamily
-from ns_pz.monitor.monitors import Detector, Flags, Sizes, has_transition, silence
+from ns_pz.monitor.monitors import (
+    Detector,
+    Flags,
+    Sizes,
+    has_transition,
+    positive_number,
+    silence,
+    watched_names,
+)
 from ns_pz.params import SIMPLEX, Params, ParamSpec
 
 FLOOR = 1e-12
@@ -115,8 +123,6 @@ class TabularCusumMonitor(Detector):
     ) -> None:
         if isinstance(window, bool) or not isinstance(window, int) or window < 1:
             raise ValueError(f"window={window!r} must be an int >= 1")
-        if not (isinstance(threshold, (int, float)) and 0.0 < threshold < math.inf):
-            raise ValueError(f"threshold={threshold!r} must be a finite number > 0")
         if not isinstance(grid_step, (int, float)) or not 0.0 < grid_step <= 1.0:
             raise ValueError(f"grid_step={grid_step!r} must be in (0, 1] and divide 1")
         if abs(round(1.0 / grid_step) * grid_step - 1.0) > 1e-9:
@@ -125,11 +131,11 @@ class TabularCusumMonitor(Detector):
             raise TypeError(f"scalar_points={scalar_points!r} must be an int >= 2")
         if scalar_points < 2:
             raise ValueError(f"scalar_points={scalar_points!r} must be >= 2")
-        self.threshold = float(threshold)
+        self.threshold = positive_number("threshold", threshold)
         self.grid_step = float(grid_step)
         self.scalar_points = scalar_points
         self.window = window
-        self.watched = None if params is None else tuple(params)
+        self.watched = watched_names(params)
         self._grids: tuple[_ParamGrid, ...] = ()
         self._structure: np.ndarray | None = None
         self._theta0_probs: np.ndarray | None = None

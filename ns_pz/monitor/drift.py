@@ -51,7 +51,6 @@ at :meth:`PredictionErrorMonitor.bind`.
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from collections.abc import Iterable, Sequence
 from typing import Any
@@ -60,7 +59,15 @@ import numpy as np
 from gymnasium import spaces
 
 from ns_pz.family import EnvFamily
-from ns_pz.monitor.monitors import Detector, Flags, Sizes, has_transition, silence
+from ns_pz.monitor.monitors import (
+    Detector,
+    Flags,
+    Sizes,
+    has_transition,
+    positive_number,
+    silence,
+    watched_names,
+)
 from ns_pz.params import SIMPLEX, Params
 
 DEFAULT_FACTORS = tuple(
@@ -117,18 +124,15 @@ class PredictionErrorMonitor(Detector):
         factors: Sequence[float] = DEFAULT_FACTORS,
         params: Sequence[str] | None = None,
     ) -> None:
-        for name, value in (("threshold", threshold), ("tolerance", tolerance)):
-            if not (isinstance(value, (int, float)) and 0.0 < value < math.inf):
-                raise ValueError(f"{name}={value!r} must be a finite number > 0")
+        self.threshold = positive_number("threshold", threshold)
+        self.tolerance = positive_number("tolerance", tolerance)
         if isinstance(window, bool) or not isinstance(window, int) or window < 1:
             raise ValueError(f"window={window!r} must be an int >= 1")
-        if not factors or not all(0.0 < float(f) < math.inf for f in factors):
+        if isinstance(factors, str) or not factors:
             raise ValueError(f"factors={factors!r} must be a non-empty list of finite numbers > 0")
-        self.threshold = float(threshold)
-        self.tolerance = float(tolerance)
+        self.factors = tuple(positive_number("factors[...]", f) for f in factors)
         self.window = window
-        self.factors = tuple(float(f) for f in factors)
-        self.watched = None if params is None else tuple(params)
+        self.watched = watched_names(params)
         self._names: tuple[str, ...] = ()
         self._kernel: Any = None
         self._columns: dict[str, int] = {}
@@ -140,8 +144,8 @@ class PredictionErrorMonitor(Detector):
             TypeError: The observation does not give the state back, and the family has no
                 ``state_from_observation``.
             UnknownParam: A watched name is not a parameter.
-            ValueError: A watched parameter is a probability vector; already bound to another
-                family or θ_0.
+            ValueError: A watched parameter is a probability vector; the dynamics are noisy;
+                already bound to another family or θ_0.
         """
         if self._already_bound(family, theta0):
             return
@@ -174,6 +178,15 @@ class PredictionErrorMonitor(Detector):
                 f"{family!r}: observe(state) is not the state; give the family a "
                 "state_from_observation(observation) method"
             )
+        outcomes = {
+            repr(family.step(back, _any_action(family), theta0, np.random.default_rng(seed)))
+            for seed in range(4)
+        }
+        if len(outcomes) > 1:
+            raise ValueError(
+                f"{family!r} draws from its generator in step (noise); PredictionErrorMonitor "
+                "predicts deterministic dynamics and would alarm at every transition"
+            )
         self._family = family
         self._theta0 = theta0
         self._names = names
@@ -183,6 +196,10 @@ class PredictionErrorMonitor(Detector):
     def initial_memory(self) -> PredictionErrorMemory:
         """θ_0 as the reference, the CUSUM at 0."""
         return PredictionErrorMemory(self._bound_theta0(), self.window)
+
+    def episode_memory(self, theta0: Params) -> PredictionErrorMemory:
+        """The episode's own θ_0 as the reference (the model only needs a θ to predict with)."""
+        return PredictionErrorMemory(theta0, self.window)
 
     def believed_theta(self, memory: PredictionErrorMemory) -> Params:
         """θ_0 updated by every change detected so far."""

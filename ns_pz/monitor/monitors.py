@@ -13,6 +13,7 @@ The game then masks the notification to its level (see
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from typing import Any, ClassVar
@@ -63,6 +64,21 @@ class Monitor(ABC):
         """
         return None
 
+    def told_through(self, memory: Any) -> int | None:
+        """For a monitor that :attr:`reads_ground_truth`: the last transition it has told of.
+
+        The planner at ``detailed`` gets the θ in force at that transition (θ_0 for ``-1``,
+        nothing told yet). ``None`` (the default, the exact oracle): every transition so far.
+        """
+        return None
+
+    def episode_memory(self, theta0: Params) -> Any:
+        """Fresh memory for an episode that starts from another θ_0 (``reset`` options).
+
+        The default is :meth:`initial_memory`: what a monitor keeps does not depend on θ_0.
+        """
+        return self.initial_memory()
+
     @abstractmethod
     def notify(
         self,
@@ -104,6 +120,36 @@ class OracleMonitor(Monitor):
         return "OracleMonitor()"
 
 
+def watched_names(params: Any) -> tuple[str, ...] | None:
+    """A detector's ``params`` argument: ``None`` (every parameter) or a non-empty name list.
+
+    Raises:
+        TypeError: A bare string (it would read as its letters) or a non-string name.
+        ValueError: An empty list.
+    """
+    if params is None:
+        return None
+    if isinstance(params, str) or not all(isinstance(name, str) for name in params):
+        raise TypeError(f"params={params!r} must be a list of parameter names, e.g. ['slip']")
+    names = tuple(params)
+    if not names:
+        raise ValueError("params=[] watches nothing; give at least one name, or None for all")
+    return names
+
+
+def positive_number(name: str, value: Any) -> float:
+    """``value`` as a float if it is a finite real number > 0 (a bool is refused).
+
+    Raises:
+        ValueError: Anything else.
+    """
+    if isinstance(value, bool) or not (
+        isinstance(value, (int, float, np.integer, np.floating)) and 0.0 < value < math.inf
+    ):
+        raise ValueError(f"{name}={value!r} must be a finite number > 0")
+    return float(value)
+
+
 class Detector(Monitor):
     """Base of the honest detectors: bound to one family and θ_0, which they may know.
 
@@ -130,6 +176,23 @@ class Detector(Monitor):
             f"{type(self).__name__} is bound to {self._family!r} with θ_0 = {self._theta0!r}; "
             f"give {family!r} with θ_0 = {theta0!r} its own instance"
         )
+
+    def episode_memory(self, theta0: Params) -> Any:
+        """Memory for an episode from ``theta0``: refused unless it is the bound θ_0.
+
+        A detector whose reference model is built for the bound θ_0 cannot serve another;
+        one whose reference is just a θ in its memory overrides this to start from ``theta0``.
+
+        Raises:
+            ValueError: ``theta0`` is not the θ_0 it is bound to.
+        """
+        if self._theta0 is not None and theta0 != self._theta0:
+            raise ValueError(
+                f"{type(self).__name__} is bound to θ_0 = {self._theta0!r}, but this episode "
+                f"starts from θ_0 = {theta0!r} (reset options): its reference model would be "
+                "wrong. Build the environment with params= that θ_0 and a detector of its own"
+            )
+        return self.initial_memory()
 
     def _bound_theta0(self) -> Params:
         """θ_0 of the bound environment.

@@ -8,7 +8,10 @@ draws exactly two uniforms per transition from the monitor's generator, whatever
 its notifications depend on the seed and the change times only.
 
 It must be asked at every transition, with the true sizes (zeros where nothing changed): its
-class attribute :attr:`~ns_pz.monitor.Monitor.quiet_without_change` is ``False``.
+class attribute :attr:`~ns_pz.monitor.Monitor.quiet_without_change` is ``False``. At
+``detailed`` the agent's planner gets the θ of the latest transition whose change it has
+reported (:meth:`NoisyOracleMonitor.told_through`): a missed or not yet reported change stays
+unknown to it, as to the agent.
 """
 
 from __future__ import annotations
@@ -25,13 +28,16 @@ from ns_pz.monitor.monitors import Flags, Monitor, Sizes, has_transition, silenc
 class NoisyOracleMemory:
     """One episode's pending (delayed) reports and the alarms raised."""
 
-    __slots__ = ("pending", "alarms")
+    __slots__ = ("pending", "alarms", "told")
 
     def __init__(self) -> None:
-        self.pending: list[tuple[int, tuple[float, ...]]] = []
-        """(transition at which to report, true sizes) of changes not reported yet."""
+        self.pending: list[tuple[int, int, tuple[float, ...]]] = []
+        """(transition at which to report, transition of the change, true sizes) of changes not
+        reported yet."""
         self.alarms: list[int] = []
         """Transition indices whose notification raised an alarm."""
+        self.told = -1
+        """The latest transition whose change has been reported (-1: none)."""
 
 
 class NoisyOracleMonitor(Monitor):
@@ -66,17 +72,25 @@ class NoisyOracleMonitor(Monitor):
                 raise TypeError(f"{name}={value!r} must be a number in [0, 1]")
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"{name}={value!r} must be in [0, 1]")
-        if isinstance(delay, bool) or not isinstance(delay, int):
+        if isinstance(delay, bool) or not isinstance(delay, (int, np.integer)):
             raise TypeError(f"delay={delay!r} must be an int >= 0")
         if delay < 0:
             raise ValueError(f"delay={delay!r} must be >= 0")
         self.miss_probability = float(miss_probability)
         self.false_alarm_probability = float(false_alarm_probability)
-        self.delay = delay
+        self.delay = int(delay)
 
     def initial_memory(self) -> NoisyOracleMemory:
         """Nothing pending."""
         return NoisyOracleMemory()
+
+    def told_through(self, memory: NoisyOracleMemory) -> int:
+        """The latest transition whose change it has reported (-1: none yet).
+
+        A planner at ``detailed`` gets the θ of that transition, never a change it missed or
+        has not reported yet.
+        """
+        return memory.told
 
     def notify(
         self,
@@ -96,11 +110,13 @@ class NoisyOracleMonitor(Monitor):
         miss_draw, false_draw = rng.random(2)
         changed = any(size > 0.0 for size in truth)
         if changed and miss_draw >= self.miss_probability:
-            memory.pending.append((transition + self.delay, tuple(float(s) for s in truth)))
-        due = [sizes for when, sizes in memory.pending if when <= transition]
-        memory.pending = [(when, sizes) for when, sizes in memory.pending if when > transition]
+            report = (transition + self.delay, transition, tuple(float(s) for s in truth))
+            memory.pending.append(report)
+        due = [entry for entry in memory.pending if entry[0] <= transition]
+        memory.pending = [entry for entry in memory.pending if entry[0] > transition]
         if due:
-            sizes = tuple(math.fsum(column) for column in zip(*due, strict=True))
+            memory.told = max(memory.told, *(at for _, at, _ in due))
+            sizes = tuple(math.fsum(column) for column in zip(*(s for *_, s in due), strict=True))
             memory.alarms.append(transition)
             return tuple(int(s > 0.0) for s in sizes), sizes
         if not changed and false_draw < self.false_alarm_probability:

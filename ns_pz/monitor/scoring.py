@@ -20,6 +20,7 @@ When an alarm is a detection, and when a false alarm:
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -93,10 +94,11 @@ def score_episode(
         ValueError: Times not strictly increasing, outside ``[0, steps)``, a negative
             ``steps`` or ``max_delay``.
     """
-    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 0:
+    if isinstance(steps, bool) or not isinstance(steps, numbers.Integral) or steps < 0:
         raise ValueError(f"steps={steps!r} must be an int >= 0")
+    steps = int(steps)
     if max_delay is not None and (
-        isinstance(max_delay, bool) or not isinstance(max_delay, int) or max_delay < 0
+        isinstance(max_delay, bool) or not isinstance(max_delay, numbers.Integral) or max_delay < 0
     ):
         raise ValueError(f"max_delay={max_delay!r} must be an int >= 0 or None")
     changes = _check_times("change_times", change_times, steps)
@@ -191,17 +193,24 @@ def detection_reward(
     Raises:
         ValueError: A negative or non-finite ``false_alarm_cost``.
     """
-    if not 0.0 <= false_alarm_cost < math.inf:
-        raise ValueError(f"false_alarm_cost={false_alarm_cost!r} must be finite and >= 0")
+    if isinstance(false_alarm_cost, bool) or not (
+        isinstance(false_alarm_cost, numbers.Real) and 0.0 <= false_alarm_cost < math.inf
+    ):
+        raise ValueError(f"false_alarm_cost={false_alarm_cost!r} must be a finite number >= 0")
     if alarm:
         return (0.0, False) if undetected_change else (-float(false_alarm_cost), False)
     return (-1.0, True) if undetected_change else (0.0, False)
 
 
 def _check_times(name: str, times: Sequence[int], steps: int) -> list[int]:
-    result = []
+    result: list[int] = []
     for value in times:
-        if isinstance(value, bool) or int(value) != value:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, numbers.Real)
+            or not math.isfinite(value)
+            or int(value) != value
+        ):
             raise ValueError(f"{name}={list(times)!r} must hold integers")
         result.append(int(value))
     if any(b <= a for a, b in zip(result, result[1:], strict=False)):

@@ -134,7 +134,7 @@ class NatureInterface:
         self._state_space = family.observation_space if observes_state else None
         self._action_of_agent = family.action_space if observes_state else None
         self._flat_state = _flat_values_of(family.observation_space)
-        self._flat_action = _flat_values_of(family.action_space)
+        self._flat_action = _flat_values_of(family.action_space, clip=True)
         self.observation_space = self._observation_space(width)
         self._slots = {spec.name: (start, stop) for spec, start, stop in self._layout}
         self._action_low = np.asarray(self.action_space.low, np.float64)
@@ -318,17 +318,23 @@ class NatureInterface:
         return values
 
 
-def _flat_values_of(space: spaces.Space[Any]) -> Callable[[Any], list[Any]]:
+def _flat_values_of(space: spaces.Space[Any], clip: bool = False) -> Callable[[Any], list[Any]]:
     """A function giving ``spaces.flatten(space, x)`` as a list of Python numbers.
 
     Boxes and ``Discrete`` (one-hot) directly, at a fraction of ``flatten``'s dispatch; other
-    spaces through ``flatten``.
+    spaces through ``flatten``. With ``clip``, a Box's values are clipped into its bounds (the
+    agent's last action: the dynamics clip one out of bounds, as Gymnasium's do).
     """
     if isinstance(space, spaces.Box):
         dtype = space.dtype
+        lows, highs = space.low.ravel().tolist(), space.high.ravel().tolist()
 
         def box_values(x: Any) -> list[Any]:
-            return np.asarray(x, dtype).ravel().tolist()
+            values = np.asarray(x, dtype).ravel().tolist()
+            if not clip:
+                return values
+            bounds = zip(values, lows, highs, strict=True)
+            return [lo if v < lo else hi if v > hi else v for v, lo, hi in bounds]
 
         return box_values
     if isinstance(space, spaces.Discrete):
