@@ -6,7 +6,9 @@ import math
 import statistics
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from ns_pz.agents.base import Agent
 
@@ -34,17 +36,25 @@ class Episode:
     alarm_times: tuple[int, ...] = ()
 
 
-def run_episode(env: NSGymEnv, agent: Agent, seed: int) -> Episode:
+def run_episode(env: gym.Env[Any, Any], agent: Agent, seed: int) -> Episode:
     """Play one episode; the environment and the agent are both seeded from ``seed``.
 
-    The agent gets a planning model every step if it asks for one (:attr:`Agent.needs_model`).
+    ``env`` is an ns_pz view, bare or wrapped (``gym.make``'s stack: it is stepped through its
+    wrappers, and the view beneath gives the planning model and the ground truth). The agent
+    gets a planning model every step if it asks for one (:attr:`Agent.needs_model`).
+
+    Raises:
+        TypeError: ``env`` is not an ns_pz view.
     """
+    view = env.unwrapped
+    if not isinstance(view, NSGymEnv):
+        raise TypeError(f"env={env!r} must be an ns_pz view (gym.make('ns_pz/...') or make_gym)")
     observation, _ = env.reset(seed=seed)
     agent.reset(np.random.default_rng([seed, 0xA6E]))  # a stream apart from the env's
     total, length, done = 0.0, 0, False
     alarms = []
     while not done:
-        model = env.planning_model() if agent.needs_model else None
+        model = view.planning_model() if agent.needs_model else None
         action = agent.act(observation, model)
         next_observation, reward, terminated, truncated, _ = env.step(action)
         agent.observe(observation, action, float(reward), next_observation, terminated)
@@ -54,11 +64,11 @@ def run_episode(env: NSGymEnv, agent: Agent, seed: int) -> Episode:
             alarms.append(length)
         length += 1
         done = terminated or truncated
-    return Episode(seed, total, length, env.ground_truth().change_times, tuple(alarms))
+    return Episode(seed, total, length, view.ground_truth().change_times, tuple(alarms))
 
 
 def evaluate(
-    make_env: Callable[[], NSGymEnv], agent: Agent, seeds: range | list[int]
+    make_env: Callable[[], gym.Env[Any, Any]], agent: Agent, seeds: range | list[int]
 ) -> list[Episode]:
     """One episode per seed, each in a fresh environment."""
     return [run_episode(make_env(), agent, seed) for seed in seeds]

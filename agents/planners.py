@@ -62,13 +62,13 @@ class SnapshotValueIteration(Agent):
     def __init__(
         self, gamma: float = 0.99, cache_size: int = 64, horizon: int | None = None
     ) -> None:
+        gamma = check_gamma(gamma)  # a real number in [0, 1] (a bool refused) ...
         if horizon is not None:
             horizon = check_horizon(horizon)
-            gamma = check_gamma(gamma)
-        elif not 0.0 <= gamma < 1.0:
+        elif gamma == 1.0:  # ... and below 1 without a horizon
             raise ValueError(f"gamma={gamma!r} must lie in [0, 1) (or [0, 1] with a horizon)")
-        if cache_size < 1:
-            raise ValueError(f"cache_size={cache_size!r} must be >= 1")
+        if isinstance(cache_size, bool) or not isinstance(cache_size, int) or cache_size < 1:
+            raise ValueError(f"cache_size={cache_size!r} must be an int >= 1")
         self.gamma = gamma
         self.cache_size = cache_size
         self.horizon = horizon
@@ -129,9 +129,10 @@ class RandomShooting(Agent):
     """
 
     def __init__(self, num_rollouts: int = 8, depth: int = 30, gamma: float = 0.99) -> None:
-        if num_rollouts < 1 or depth < 1:
-            raise ValueError(f"num_rollouts={num_rollouts!r} and depth={depth!r} must be >= 1")
-        self.num_rollouts, self.depth, self.gamma = num_rollouts, depth, gamma
+        for name, value in (("num_rollouts", num_rollouts), ("depth", depth)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name}={value!r} must be an int >= 1")
+        self.num_rollouts, self.depth, self.gamma = num_rollouts, depth, check_gamma(gamma)
 
     @property
     def needs_model(self) -> bool:

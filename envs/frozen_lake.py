@@ -76,4 +76,10 @@ class FrozenLakeFamily(GoalHoleGridFamily):
         super().__init__(desc, MOVES, offsets=(0, 1, -1), rewards=rewards)
 
     def __repr__(self) -> str:
-        return f"FrozenLakeFamily(desc={list(self.desc)!r})"
+        """Every argument that changes the dynamics (caches and detectors key on it).
+
+        The default reward schedule is left out, so existing cache keys stay valid.
+        """
+        schedule = self.reward_schedule
+        rewards = "" if schedule == (1.0, 0.0, 0.0) else f", reward_schedule={schedule!r}"
+        return f"FrozenLakeFamily(desc={list(self.desc)!r}{rewards})"

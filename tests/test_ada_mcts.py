@@ -249,9 +249,9 @@ def test_non_tabular_models_are_refused():
         ({"kappa": float("inf")}, TypeError, r"kappa=inf must be a finite number"),
         ({"warmup": -5}, ValueError, r"warmup=-5 must be >= 0"),
         ({"radius": -1}, ValueError, r"radius=-1 must be >= 0"),
-        ({"base_concentration": 0}, ValueError, r"base_concentration=0 must be > 0"),
+        ({"base_concentration": 0}, ValueError, r"base_concentration=0 must be finite and > 0"),
         ({"pooling": "global"}, ValueError, r"pooling='global' is not a pooling"),
-        ({"failure_reward": "low"}, TypeError, r"failure_reward='low' must be a number"),
+        ({"failure_reward": "low"}, TypeError, r"failure_reward='low' must be a finite number"),
     ],
 )
 def test_bad_hyper_parameters_are_refused(kwargs, error, match):
@@ -410,3 +410,20 @@ def test_danger_counts_distinct_action_cell_pairs_at_the_threshold():
     values = np.asarray(outcomes.rewards)
     assert ADAMCTS(danger_threshold=3).in_danger(values, outcomes, 0)
     assert not ADAMCTS(danger_threshold=4).in_danger(values, outcomes, 0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"warmup": 2.5}, "warmup=2.5 must be an int"),
+        ({"danger_threshold": 1.5}, "danger_threshold=1.5 must be an int"),
+        ({"base_concentration": True}, "base_concentration=True"),
+        ({"base_concentration": float("inf")}, "base_concentration=inf"),
+        ({"failure_reward": float("nan")}, "failure_reward=nan"),
+        ({"failure_reward": True}, "failure_reward=True"),
+    ],
+)
+def test_ada_mcts_refuses_what_it_would_truncate_or_turn_into_nan(kwargs, match):
+    """Counts are ints (2.5 was truncated), concentrations and rewards finite numbers."""
+    with pytest.raises((TypeError, ValueError), match=match):
+        ADAMCTS(**kwargs)

@@ -45,3 +45,32 @@ def test_agents_are_reproducible_from_their_generator():
             agent.reset(np.random.default_rng(7))
             actions.append([agent.act(obs, env.planning_model()) for _ in range(5)])
         assert actions[0] == actions[1]
+
+
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: RandomShooting(gamma=5.0), "gamma=5.0"),
+        (lambda: RandomShooting(gamma=-1.0), "gamma=-1.0"),
+        (lambda: RandomShooting(depth=2.5), "depth=2.5"),
+        (lambda: SnapshotValueIteration(gamma=False), "gamma=False"),
+        (lambda: SnapshotValueIteration(cache_size=2.5), "cache_size=2.5"),
+        (lambda: SnapshotValueIteration(cache_size=True), "cache_size=True"),
+    ],
+)
+def test_planner_arguments_are_checked_by_name(make, match):
+    """Discounts are real numbers in range (a bool is none), counts are ints."""
+    with pytest.raises((TypeError, ValueError), match=match):
+        make()
+
+
+def test_run_episode_takes_a_gym_make_stack():
+    """gym.make wraps the view; the episode runs through the wrappers, planning on the view."""
+    import gymnasium as gym
+    from ns_pz.agents.evaluation import run_episode
+
+    wrapped = run_episode(gym.make("ns_pz/FrozenLake-v0"), SnapshotValueIteration(), 0)
+    bare = run_episode(ns_pz.make_gym("ns_pz/FrozenLake-v0"), SnapshotValueIteration(), 0)
+    assert (wrapped.episode_return, wrapped.length) == (bare.episode_return, bare.length)
+    with pytest.raises(TypeError, match="must be an ns_pz view"):
+        run_episode(gym.make("FrozenLake-v1"), SnapshotValueIteration(), 0)

@@ -251,3 +251,9 @@ def _random_cartpole_function():
     return PolicyValueFunction(
         weights, ns_pz.make_gym("ns_pz/CartPole-v0").family.observation_space
     )
+
+
+def test_normalise_q_must_be_a_bool():
+    """The string "false" would have switched normalisation on."""
+    with pytest.raises(TypeError, match="normalise_q='false' must be a bool"):
+        AlphaZeroArgs(normalise_q="false")

@@ -89,3 +89,21 @@ def test_bad_budget_is_refused():
     """A negative budget names the parameter."""
     with pytest.raises(ValueError, match="model_steps=-1 must be an integer >= 0"):
         agent_entry("ddqn_wn").artefacts(_env(), {"model_steps": -1})
+
+
+def test_acting_leaves_torchs_thread_count_as_it_was():
+    """Fine-tuning runs on one thread, and gives the caller's thread count back."""
+    import torch
+
+    env = _env()
+    observation, _ = env.reset(seed=0)
+    observation, *_ = env.step(1)
+    observation, *_ = env.step(1)
+    before = torch.get_num_threads()
+    torch.set_num_threads(2)
+    try:
+        agent = _agent(env, model_steps=20, gradient_steps=2)
+        agent.act(observation, env.planning_model())
+        assert agent.fine_tunings == 1 and torch.get_num_threads() == 2
+    finally:
+        torch.set_num_threads(before)

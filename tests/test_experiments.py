@@ -625,6 +625,7 @@ def test_tables_and_figures_say_what_the_labels_and_plus_minus_mean_and_draw_the
     assert "Mean episode return ± one standard error, n = 4 episodes per cell." in markdown
     latex = table(store.rows(), "t", "latex", optimum, record)
     assert r"$\pm$ one standard error, n = 4 episodes" in latex and "θ" not in latex
+    assert r"plans with $\theta_0$" in latex and r"$\theta$\_0" not in latex
     pytest.importorskip("matplotlib")
     from matplotlib.figure import Figure
 
@@ -649,3 +650,39 @@ def test_non_tabular_tables_have_no_optimum_row() -> None:
     from ns_pz.experiments.optimum import optimum_for
 
     assert optimum_for(load_spec("cartpole-single").to_dict()) is None
+
+
+def test_a_size_table_merges_nested_tables_with_the_common_ones(tmp_path: Path) -> None:
+    """A size's nested table adds to the common one (it replaced it, dropping its keys)."""
+    pytest.importorskip("torch")
+    text = TINY.replace(
+        'name = "random"',
+        'name = "pamcts"\n'
+        "params = { ddqn = { hidden = [32], learning_rate = 0.01 } }\n"
+        "quick = { ddqn = { total_steps = 1000 } }",
+    )
+    experiment = load_spec(write_spec(tmp_path, text), "quick")
+    assert experiment.agents[0].hyper["ddqn"] == {
+        "hidden": [32],
+        "learning_rate": 0.01,
+        "total_steps": 1000,
+    }
+
+
+@pytest.mark.parametrize(
+    ("agent", "params", "match"),
+    [
+        ("pamcts", "{ iterations = 0 }", "iterations=0"),
+        ("pamcts", '{ normalise = "false" }', "normalise='false' must be a bool"),
+        ("pamcts", '{ backend = "gpu" }', "backend='gpu'"),
+        ("ddqn_wn", "{ epsilon = 5.0 }", "epsilon=5.0"),
+    ],
+)
+def test_learning_agents_acting_settings_are_checked_at_load(
+    tmp_path: Path, agent: str, params: str, match: str
+) -> None:
+    """Before any network trains: a spec with a bad acting setting is refused at load."""
+    pytest.importorskip("torch")
+    text = TINY.replace('name = "random"', f'name = "{agent}"\nparams = {params}')
+    with pytest.raises(SpecError, match=match):
+        load_spec(write_spec(tmp_path, text), "quick")

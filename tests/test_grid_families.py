@@ -107,3 +107,12 @@ def test_bridge_honours_the_seed():
 
     assert episode(3) == episode(3)
     assert len({tuple(episode(seed)) for seed in range(10)}) > 1
+
+
+def test_frozen_lake_repr_tells_reward_schedules_apart():
+    """Caches and detectors key on the family's repr: another reward schedule, another key."""
+    from ns_pz.envs.frozen_lake import FrozenLakeFamily
+
+    default, harsh = FrozenLakeFamily(), FrozenLakeFamily(reward_schedule=(1.0, -1.0, 0.0))
+    assert repr(default) != repr(harsh) and "reward_schedule" not in repr(default)
+    assert "reward_schedule=(1.0, -1.0, 0.0)" in repr(harsh)

@@ -157,12 +157,13 @@ def nature_grid(
         start: θ_{-1}, the environment's initial θ.
         constraints: Lipschitz bound and budget (``None``: neither).
         budget_unit: Size of one budget unit. Default: the smallest positive move cost. Every
-            move's cost and the budget must be whole multiples of it.
+            move's cost must be a whole multiple of it; the budget is rounded down to whole
+            units (no sequence of moves can spend the remainder, so the grid stays exact).
 
     Raises:
         TypeError: A θ is not a Params of ``start``'s class.
-        ValueError: A cost or the budget is not a whole number of units, or the budget is per
-            parameter or normalised.
+        ValueError: A cost is not a whole number of units, or the budget is per parameter or
+            normalised.
     """
     points = list(dict.fromkeys(thetas))
     for theta in points:

@@ -26,7 +26,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import pyspiel
+
+try:
+    import pyspiel
+except ImportError as error:  # the optional extra: say how to get it
+    raise ImportError(
+        f"ns_pz.agents.exact.openspiel_game needs OpenSpiel ({error}): "
+        "pip install 'ns_pz[openspiel]'"
+    ) from None
 from ns_pz.agents.exact.game_stages import check_game, family_of, grid_tables
 from ns_pz.agents.exact.nature_grid import NatureGrid
 

@@ -118,7 +118,12 @@ def slip_intervals(
     if low > high:
         raise ValueError(f"low={low!r} must be <= high={high!r}")
     for name, value in (("lipschitz", lipschitz), ("budget", budget)):
-        if value is not None and not (math.isfinite(value) and value >= 0.0):
+        if value is not None and not (
+            isinstance(value, (int, float, np.integer, np.floating))
+            and not isinstance(value, bool)
+            and math.isfinite(value)
+            and value >= 0.0
+        ):
             raise ValueError(f"{name}={value!r} must be a finite number >= 0 or None")
     if isinstance(first_change_step, bool) or not isinstance(first_change_step, int):
         raise TypeError(f"first_change_step={first_change_step!r} must be an int")

@@ -24,7 +24,8 @@ from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.ddqn import double_dqn_target, soft_update
 from ns_pz.agents.learning.features import features
-from ns_pz.agents.learning.networks import mlp
+from ns_pz.agents.learning.networks import mlp, one_thread
+from ns_pz.agents.learning.q_agent import check_fine_tuning
 from ns_pz.agents.learning.replay import ReplayBuffer
 
 
@@ -66,13 +67,7 @@ class FineTunedDDQNAgent(Agent):
         gradient_steps: int,
         epsilon: float,
     ) -> None:
-        for name, value in (("model_steps", model_steps), ("gradient_steps", gradient_steps)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                raise ValueError(f"{name}={value!r} must be an integer >= 0")
-        if isinstance(epsilon, bool) or not isinstance(epsilon, (int, float)):
-            raise TypeError(f"epsilon={epsilon!r} must be a real number in [0, 1]")
-        if not 0.0 <= epsilon <= 1.0:
-            raise ValueError(f"epsilon={epsilon!r} must lie in [0, 1]")
+        check_fine_tuning(model_steps, gradient_steps, epsilon)
         self.weights = weights
         self.space = observation_space
         self.args = args
@@ -87,7 +82,6 @@ class FineTunedDDQNAgent(Agent):
     def reset(self, rng: np.random.Generator) -> None:
         """Back to the θ_0 network, with a fresh buffer."""
         super().reset(rng)
-        torch.set_num_threads(1)
         self.online = network_from(self.weights, "q")
         self.target = copy.deepcopy(self.online)
         self.optimizer = torch.optim.Adam(
@@ -105,11 +99,12 @@ class FineTunedDDQNAgent(Agent):
         Raises:
             ValueError: A change is flagged and no model was handed over.
         """
-        if np.any(observation["env_change"]):
-            if model is None:
-                raise ValueError("DDQN-WN needs the planning model on a notified change")
-            self._fine_tune(model)
-        return self._greedy(features(self.space, observation["state"]))
+        with one_thread():  # the caller's torch thread count is left as it was
+            if np.any(observation["env_change"]):
+                if model is None:
+                    raise ValueError("DDQN-WN needs the planning model on a notified change")
+                self._fine_tune(model)
+            return self._greedy(features(self.space, observation["state"]))
 
     def _greedy(self, x: np.ndarray) -> int:
         with torch.no_grad():

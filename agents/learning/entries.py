@@ -7,14 +7,15 @@ runner can train each missing one once before the trials and spec checks can ski
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from ns_pz.agents.learning.alphazero_agent import build_alphazero
 from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
-from ns_pz.agents.learning.pamcts import build_pamcts, check_alpha
-from ns_pz.agents.learning.q_agent import build_ddqn, build_ddqn_wn
+from ns_pz.agents.learning.pamcts import build_pamcts, check_pamcts
+from ns_pz.agents.learning.q_agent import build_ddqn, build_ddqn_wn, check_fine_tuning
 from ns_pz.agents.learning.trained import Needed, alphazero_needed, ddqn_needed
 
 from ns_pz.views import NSGymEnv
@@ -37,16 +38,29 @@ def _ddqn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
 
 
 def _pamcts_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
-    check_alpha(hyper.get("alpha", 0.5))
+    """The stale DDQN; acting hyper-parameters checked as the agent would (builder defaults)."""
+    acting = {**_defaults(build_pamcts), **hyper}
+    check_pamcts(*(acting[name] for name in _PAMCTS_ACTING))
     return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
+
+
+_PAMCTS_ACTING = ("alpha", "normalise", "iterations", "depth", "c", "gamma", "backend")
 
 
 def _ddqn_wn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
-    for name in ("model_steps", "gradient_steps"):
-        value = hyper.get(name, 0)
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise ValueError(f"{name}={value!r} must be an integer >= 0")
+    """The DDQN it fine-tunes; the fine-tuning budget checked as the agent would."""
+    acting = {**_defaults(build_ddqn_wn), **hyper}
+    check_fine_tuning(acting["model_steps"], acting["gradient_steps"], acting["epsilon"])
     return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
+
+
+def _defaults(build: Callable[..., Any]) -> dict[str, Any]:
+    """A builder's keyword defaults."""
+    return {
+        name: parameter.default
+        for name, parameter in inspect.signature(build).parameters.items()
+        if parameter.default is not inspect.Parameter.empty
+    }
 
 
 def _alphazero_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:

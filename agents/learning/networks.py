@@ -16,20 +16,26 @@ from torch import nn
 
 
 @contextlib.contextmanager
+def one_thread() -> Iterator[None]:
+    """Run the block on one torch thread, restoring the caller's thread count afterwards."""
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(threads)
+
+
+@contextlib.contextmanager
 def seeded_torch(seed: int) -> Iterator[None]:
     """Run the block on one thread with torch's generator seeded, restoring both afterwards.
 
     Network initialisation and anything else drawn from torch's global generator inside the
     block depends on ``seed`` only, and the caller's generator state is left as it was.
     """
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    try:
-        with torch.random.fork_rng(devices=[]):
-            torch.manual_seed(seed)
-            yield
-    finally:
-        torch.set_num_threads(threads)
+    with one_thread(), torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        yield
 
 
 def mlp(inputs: int, hidden: Sequence[int], outputs: int) -> nn.Sequential:

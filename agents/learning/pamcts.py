@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.q_agent import QNetwork, ddqn_q_network
+from ns_pz.agents.search.compiled import BACKENDS
 from ns_pz.agents.search.mcts import check_uct_params, uct_tree, uniform_index
 from ns_pz.agents.search.types import SearchAgent, SearchResult
 
@@ -140,14 +141,13 @@ class PAMCTS(SearchAgent):
         gamma: float = 0.99,
         backend: str = "auto",
     ) -> None:
-        alpha = check_alpha(alpha)
-        check_uct_params(iterations, depth, c, gamma)
+        alpha = check_pamcts(alpha, normalise, iterations, depth, c, gamma, backend)
         self._observe: Callable[[Any], Any] | None = None
         search = functools.partial(
             pamcts,
             q_fn=self._q_of_state,
             alpha=alpha,
-            normalise=bool(normalise),
+            normalise=normalise,
             iterations=iterations,
             depth=depth,
             c=c,
@@ -169,6 +169,23 @@ class PAMCTS(SearchAgent):
 
     def __repr__(self) -> str:
         return f"PAMCTS(alpha={self.alpha})"
+
+
+def check_pamcts(
+    alpha: Any, normalise: Any, iterations: Any, depth: Any, c: Any, gamma: Any, backend: Any
+) -> float:
+    """Validate PA-MCTS's acting hyper-parameters (without its network); returns α.
+
+    Raises:
+        TypeError, ValueError: A hyper-parameter out of range (a string ``"false"`` is no bool).
+    """
+    alpha = check_alpha(alpha)
+    check_uct_params(iterations, depth, c, gamma)
+    if not isinstance(normalise, bool):
+        raise TypeError(f"normalise={normalise!r} must be a bool")
+    if backend not in BACKENDS:
+        raise ValueError(f"backend={backend!r} is not a backend; allowed: {list(BACKENDS)}")
+    return alpha
 
 
 def build_pamcts(

@@ -68,6 +68,22 @@ def build_ddqn(env: NSGymEnv, **hyper: Any) -> DDQNAgent:
     return DDQNAgent(ddqn_q_network(env, DDQNArgs(**hyper)))
 
 
+def check_fine_tuning(model_steps: Any, gradient_steps: Any, epsilon: Any) -> None:
+    """Validate DDQN-WN's fine-tuning budget.
+
+    Raises:
+        ValueError: A count that is not an int >= 0, or ``epsilon`` outside [0, 1].
+        TypeError: ``epsilon`` is not a real number.
+    """
+    for name, value in (("model_steps", model_steps), ("gradient_steps", gradient_steps)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise ValueError(f"{name}={value!r} must be an integer >= 0")
+    if isinstance(epsilon, bool) or not isinstance(epsilon, (int, float)):
+        raise TypeError(f"epsilon={epsilon!r} must be a real number in [0, 1]")
+    if not 0.0 <= epsilon <= 1.0:
+        raise ValueError(f"epsilon={epsilon!r} must lie in [0, 1]")
+
+
 def build_ddqn_wn(
     env: NSGymEnv,
     *,

@@ -2,6 +2,7 @@
 
 * :class:`MCTS` / :func:`uct`: UCT with random rollouts (compiled with numba when installed);
 * :class:`ADAMCTS`: ADA-MCTS with a Dirichlet transition learner (tabular envs);
+* :func:`rats_agent`: RATS, UCT against the worst case of a Wasserstein ball around the model;
 * :class:`SearchAgent`: plugs any ``search(model, root_state, rng) -> SearchResult`` into the loop.
 
 Importing this package does not import numba: the compiled kernels load on first use.
@@ -9,6 +10,7 @@ Importing this package does not import numba: the compiled kernels load on first
 
 from ns_pz.agents.search.ada_mcts import ADAMCTS
 from ns_pz.agents.search.mcts import MCTS, UCTTree, uct, uct_tree
+from ns_pz.agents.search.rats import rats_agent
 from ns_pz.agents.search.types import SearchAgent, SearchFunction, SearchResult
 
 __all__ = [
@@ -18,6 +20,7 @@ __all__ = [
     "SearchFunction",
     "SearchResult",
     "UCTTree",
+    "rats_agent",
     "uct",
     "uct_tree",
 ]

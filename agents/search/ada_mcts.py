@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from numbers import Real
+from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -161,19 +161,30 @@ class ADAMCTS(Agent):
             ("delta", delta, 0.0),
             ("kappa", kappa, 0.0),
             ("radius", radius, 0.0),
-            ("warmup", warmup, 0),
-            ("danger_threshold", danger_threshold, 0),
         ):
             if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
                 raise TypeError(f"{name}={value!r} must be a finite number")
             if value < low:
                 raise ValueError(f"{name}={value!r} must be >= {low}")
-        if not isinstance(base_concentration, Real) or not base_concentration > 0:
-            raise ValueError(f"base_concentration={base_concentration!r} must be > 0")
+        for name, value in (("warmup", warmup), ("danger_threshold", danger_threshold)):
+            if isinstance(value, bool) or not isinstance(value, Integral):  # 2.5 was truncated
+                raise TypeError(f"{name}={value!r} must be an int >= 0")
+            if value < 0:
+                raise ValueError(f"{name}={value!r} must be >= 0")
+        if (
+            isinstance(base_concentration, bool)
+            or not isinstance(base_concentration, Real)
+            or not 0 < base_concentration < math.inf
+        ):
+            raise ValueError(f"base_concentration={base_concentration!r} must be finite and > 0")
         if pooling not in POOLINGS:
             raise ValueError(f"pooling={pooling!r} is not a pooling; allowed: {list(POOLINGS)}")
-        if failure_reward is not None and not isinstance(failure_reward, Real):
-            raise TypeError(f"failure_reward={failure_reward!r} must be a number or None")
+        if failure_reward is not None and (
+            isinstance(failure_reward, bool)
+            or not isinstance(failure_reward, Real)
+            or not math.isfinite(failure_reward)
+        ):
+            raise TypeError(f"failure_reward={failure_reward!r} must be a finite number or None")
         if distance is not None and not callable(distance):
             raise TypeError(f"distance={distance!r} must be callable or None")
         self.iterations: int = int(iterations)

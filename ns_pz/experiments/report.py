@@ -234,10 +234,14 @@ def _markdown(title: str, header: list[str], body: list[list[str]], note: str) -
 
 def _latex(title: str, header: list[str], body: list[list[str]], note: str) -> str:
     def cell(text: str) -> str:
+        # Symbols become placeholders first, so escaping cannot reach inside their math.
+        symbols = (("θ_0", r"\theta_0"), ("±", r"\pm"), ("θ", r"\theta"), ("−", "-"))
+        for i, (char, _) in enumerate(symbols):
+            text = text.replace(char, f"\0{i}\0")
         for char, escaped in (("_", r"\_"), ("%", r"\%"), ("&", r"\&"), ("#", r"\#")):
             text = text.replace(char, escaped)
-        for char, math in (("±", r"\pm"), ("θ_0", r"\theta_0"), ("θ", r"\theta"), ("−", "-")):
-            text = text.replace(char, f"${math}$")
+        for i, (_, math) in enumerate(symbols):
+            text = text.replace(f"\0{i}\0", f"${math}$")
         return text
 
     lines = [

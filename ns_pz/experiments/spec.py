@@ -29,7 +29,7 @@ A spec is a TOML file::
     name = "mcts"                        # a name of ns_pz.agents.catalog
     label = "MCTS"                       # how tables call it (default: the name)
     params = { c = 1.4142 }              # hyper-parameters for every size
-    quick = { iterations = 100 }         # ... overridden per size
+    quick = { iterations = 100 }         # ... overridden per size (nested tables merged)
     notifications = ["none"]             # optional: the levels this agent runs at
 
 ``notifications`` lists the columns: the levels ``"none"`` (WON), ``"basic"``, ``"detailed"``
@@ -659,7 +659,7 @@ class _Checker:
                 entry.check_names(table)
             except ValueError as error:
                 raise self.fail(f"{where}.{field}", str(error)) from None
-        hyper = {**common, **raw.get(size, {})}
+        hyper = _merged(common, raw.get(size, {}))
         field = f"{where}.{size}" if raw.get(size) else f"{where}.params"
         try:
             json.dumps(hyper, allow_nan=False)
@@ -735,3 +735,19 @@ class _Checker:
                 f"agent {entry.name!r} cannot act in {env.family!r}: "
                 f"{type(error).__name__}: {error}",
             ) from None
+
+
+def _merged(common: Mapping[str, Any], sized: Mapping[str, Any]) -> dict[str, Any]:
+    """``common`` overridden by a size's table, nested tables merged key by key.
+
+    ``params = { ddqn = { hidden = [32] } }`` and ``quick = { ddqn = { total_steps = 1000 } }``
+    give ``ddqn = { hidden = [32], total_steps = 1000 }`` at the quick size.
+    """
+    merged = dict(common)
+    for key, value in sized.items():
+        base = merged.get(key)
+        if isinstance(base, Mapping) and isinstance(value, Mapping):
+            merged[key] = _merged(base, value)
+        else:
+            merged[key] = value
+    return merged
