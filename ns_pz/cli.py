@@ -163,9 +163,14 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     training: dict[str, float] = {}  # by key: specs with the same θ_0 share a network
     for experiment in specs:  # trained once, in the driver, before any trial
         for trained in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
-            if trained.key not in training:
+            if trained.key in training:
+                continue
+            if trained.trained_now:
                 training[trained.key] = trained.seconds
                 out(f"training: {trained.label}: {trained.seconds:.1f} s")
+            else:  # a run here would load it: not part of the projection
+                training[trained.key] = 0.0
+                out(f"training: {trained.label}: cached (trained in {trained.seconds:.1f} s)")
     grand = grand_cpu = 0.0
     out(
         "| spec | setting | notification | agent | s/trial | CPU s/trial | trials "
