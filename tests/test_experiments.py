@@ -686,3 +686,15 @@ def test_learning_agents_acting_settings_are_checked_at_load(
     text = TINY.replace('name = "random"', f'name = "{agent}"\nparams = {params}')
     with pytest.raises(SpecError, match=match):
         load_spec(write_spec(tmp_path, text), "quick")
+
+
+def test_results_get_the_permissions_a_plain_open_gives(tmp_path: Path) -> None:
+    """Written atomically through tempfile (0600) but shared: 0666 minus the umask."""
+    import os
+    import stat
+
+    mask = os.umask(0)
+    os.umask(mask)
+    run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
+    for path in (tmp_path / "out" / "results.csv", tmp_path / "out" / "spec.json"):
+        assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask, path

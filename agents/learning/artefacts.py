@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ns_pz.errors import NSPZError
+from ns_pz.files import as_if_created
 
 FORMAT = "ns_pz-artefact"
 FORMAT_VERSION = 1
@@ -138,6 +139,7 @@ def save(
         "info": dict(info or {}),
     }
     staging = Path(tempfile.mkdtemp(prefix=f".{request.key}-", dir=final.parent))
+    as_if_created(staging, folder=True)  # a shared cache must be readable by its other users
     try:
         (staging / WEIGHTS).write_bytes(payload)
         (staging / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True))

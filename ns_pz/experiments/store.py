@@ -27,6 +27,7 @@ from typing import Any
 
 from ns_pz.experiments.spec import ExperimentSpec, SpecError
 from ns_pz.experiments.trials import COLUMNS
+from ns_pz.files import as_if_created
 
 
 class ResultStore:
@@ -145,6 +146,7 @@ class ResultStore:
                 writer.writerow({column: row.get(column) for column in COLUMNS})
             handle.flush()
             os.fsync(handle.fileno())
+        as_if_created(handle.name)
         os.replace(handle.name, path)
         return path
 
@@ -179,4 +181,5 @@ def _write_atomic(path: Path, text: str) -> None:
         handle.write(text)
         handle.flush()
         os.fsync(handle.fileno())
+    as_if_created(handle.name)
     os.replace(handle.name, path)
