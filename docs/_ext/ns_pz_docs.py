@@ -82,8 +82,8 @@ LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     ),
     (
         "Experiments",
-        "Benchmark specs, trials, runner, backends and reports.",
-        ("ns_pz.experiments",),
+        "Benchmark specs, trials, runner, backends and reports; shared result files.",
+        ("ns_pz.experiments", "ns_pz.files"),
     ),
     ("Compat", "NS-Gym's API over the ns_pz core.", ("ns_pz.compat",)),
     (
