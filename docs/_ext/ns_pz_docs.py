@@ -37,8 +37,8 @@ logger = logging.getLogger(__name__)
 LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     (
         "θ: parameter sets",
-        "Immutable, validated parameter values and their errors.",
-        ("ns_pz.params", "ns_pz.errors"),
+        "Immutable, validated parameter values and their errors (and leaf utilities).",
+        ("ns_pz.params", "ns_pz.errors", "ns_pz.files"),
     ),
     (
         "Nature",
@@ -82,8 +82,8 @@ LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     ),
     (
         "Experiments",
-        "Benchmark specs, trials, runner, backends and reports; shared result files.",
-        ("ns_pz.experiments", "ns_pz.files"),
+        "Benchmark specs, trials, runner, backends and reports.",
+        ("ns_pz.experiments",),
     ),
     ("Compat", "NS-Gym's API over the ns_pz core.", ("ns_pz.compat",)),
     (
