@@ -15,6 +15,7 @@ from ns_pz.agents.base import Agent
 from ns_pz.agents.exact.induction import backward_induction, check_gamma
 from ns_pz.agents.exact.schedule import check_horizon
 
+from ns_pz.monitor.monitors import count
 from ns_pz.params import Params
 from ns_pz.planning import TabularOutcomes
 
@@ -67,8 +68,7 @@ class SnapshotValueIteration(Agent):
             horizon = check_horizon(horizon)
         elif gamma == 1.0:  # ... and below 1 without a horizon
             raise ValueError(f"gamma={gamma!r} must lie in [0, 1) (or [0, 1] with a horizon)")
-        if isinstance(cache_size, bool) or not isinstance(cache_size, int) or cache_size < 1:
-            raise ValueError(f"cache_size={cache_size!r} must be an int >= 1")
+        cache_size = count("cache_size", cache_size)
         self.gamma = gamma
         self.cache_size = cache_size
         self.horizon = horizon
@@ -129,10 +129,9 @@ class RandomShooting(Agent):
     """
 
     def __init__(self, num_rollouts: int = 8, depth: int = 30, gamma: float = 0.99) -> None:
-        for name, value in (("num_rollouts", num_rollouts), ("depth", depth)):
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ValueError(f"{name}={value!r} must be an int >= 1")
-        self.num_rollouts, self.depth, self.gamma = num_rollouts, depth, check_gamma(gamma)
+        self.num_rollouts = count("num_rollouts", num_rollouts)
+        self.depth = count("depth", depth)
+        self.gamma = check_gamma(gamma)
 
     @property
     def needs_model(self) -> bool:

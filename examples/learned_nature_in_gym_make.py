@@ -1,7 +1,7 @@
 """A trained nature, saved and loaded, dropped into ``gym.make(..., nature=PolicyNature(model))``.
 
 Any SB3 model trained in nature's seat (``ns_pz.single_agent(..., learner="nature")``) drives the
-Gymnasium view, the AEC game and the experiment runner through the same observation and action
+Gymnasium view, the AEC game and the vector env through the same observation and action
 conventions it was trained with. Needs the ``learn`` extra; ``--steps 20000`` trains longer.
 """
 

@@ -176,13 +176,15 @@ class NSGame(AECEnv):
             options: ``{"params": θ_0}`` starts this episode from another θ_0.
 
         Raises:
-            TypeError / ValueError: A bad seed or an unknown option.
+            TypeError / ValueError: A bad seed or θ_0, options that are no mapping, or a θ_0
+                the monitor cannot serve (a detector bound to another); nothing changes then.
         """
         process = self._process
         seed = check_seed(seed)
+        prepared = process.prepare_episode(options)  # refused before anything changes
         if seed is not None or process.env_rng is None:
             process.seed(seed)
-        process.reset(options)
+        process.reset(options, prepared=prepared)
         self.agents = list(AGENTS)
         self.rewards = dict.fromkeys(AGENTS, 0.0)
         self._cumulative_rewards = dict.fromkeys(AGENTS, 0.0)
@@ -382,7 +384,11 @@ class NSGame(AECEnv):
         return self._process.ground_truth()
 
     def planning_model(self) -> Any:
-        """A stationary planning model for the decision agent (θ_0, or θ_{t-1} at ``detailed``)."""
+        """A stationary planning model for the decision agent under the planning θ.
+
+        θ_0, or at ``detailed`` the latest θ the agent has been told of (with the exact oracle
+        θ_{t-1}; see :meth:`~ns_pz.process.NSProcess.planning_theta`).
+        """
         return self._process.planning_model()
 
     @property

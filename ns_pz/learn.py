@@ -225,10 +225,17 @@ def rarl(
     """
     rounds = _count("rounds", rounds)
     eval_episodes = _count("eval_episodes", eval_episodes)
-    if out_dir is not None and (Path(out_dir) / "log.jsonl").exists():
-        raise ValueError(
-            f"out_dir={str(out_dir)!r} already holds a RARL run (log.jsonl); give a new folder"
-        )
+    if out_dir is not None:
+        held = [
+            p.name
+            for p in Path(out_dir).glob("*")
+            if p.name == "log.jsonl" or p.name.startswith("round_")
+        ]
+        if held:
+            raise ValueError(
+                f"out_dir={str(out_dir)!r} already holds a RARL run ({', '.join(sorted(held))}); "
+                "give a new folder"
+            )
     agent_args = agent_args or TrainArgs()
     nature_args = nature_args or TrainArgs()
     nature_seat = _Seat()

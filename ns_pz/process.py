@@ -33,7 +33,7 @@ import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -78,6 +78,13 @@ DECISION = "agent"
 AGENTS = (NATURE, MONITOR, DECISION)
 """The three seats, in turn order."""
 RESET_OPTIONS = ("params",)
+
+
+class EpisodeStart(NamedTuple):
+    """What a reset starts from (:meth:`NSProcess.prepare_episode`)."""
+
+    theta0: Params
+    monitor_memory: Any
 
 
 class NSProcess:
@@ -180,6 +187,7 @@ class NSProcess:
         self.notice: tuple[tuple, tuple] = self._quiet
         """The notification of this step (flags, sizes), masked to the level; zeros until the
         monitor's turn and after the episode ends."""
+        self._told_by_monitor = True  # False once a notification comes from outside
         self.spent: dict[str, float] = {}
         """Change size charged to nature's budget per parameter this episode (nothing is
         charged when no budget applies)."""
@@ -211,17 +219,17 @@ class NSProcess:
         self._planning_seeds = planning_seq
         self._seat_seeds = seat_seq
 
-    def reset(self, options: Mapping[str, Any] | None = None) -> None:
-        """Start an episode: θ back to θ_0, a start state drawn, the clock at 0, nature to move.
+    def prepare_episode(self, options: Mapping[str, Any] | None = None) -> EpisodeStart:
+        """Check a reset's ``options`` and what they start, changing nothing.
 
-        Args:
-            options: ``{"params": θ_0}`` starts this episode (only) from another θ_0, a
-                parameter set or a mapping of names to values (others default). Other keys are
-                ignored with a warning that names them (PettingZoo's ``api_test`` passes one).
+        Drivers that reseed at reset call this first, so a refused reset leaves the running
+        episode and its generators as they were; :meth:`reset` then takes the result.
 
         Raises:
             TypeError: ``options`` is not a mapping.
             ParamOutOfRange / UnknownParam: An invalid θ_0.
+            ValueError: The monitor cannot serve an episode from this θ_0 (a detector bound
+                to another).
         """
         theta0 = self.base_theta0
         if options is not None:
@@ -233,14 +241,34 @@ class NSProcess:
                     f"reset options {unknown} are not understood and were ignored; "
                     f"understood: {list(RESET_OPTIONS)}",
                     UserWarning,
-                    stacklevel=3,
+                    stacklevel=4,
                 )
             if options.get("params") is not None:
                 theta0 = _check_params(self.family, options["params"])
-        # First, as it may refuse the episode (a detector bound to another θ_0).
         monitor = self.monitor
         same = theta0 is self.base_theta0 or theta0 == self.base_theta0
-        monitor_memory = monitor.initial_memory() if same else monitor.episode_memory(theta0)
+        return EpisodeStart(
+            theta0, monitor.initial_memory() if same else monitor.episode_memory(theta0)
+        )
+
+    def reset(
+        self, options: Mapping[str, Any] | None = None, *, prepared: EpisodeStart | None = None
+    ) -> None:
+        """Start an episode: θ back to θ_0, a start state drawn, the clock at 0, nature to move.
+
+        Args:
+            options: ``{"params": θ_0}`` starts this episode (only) from another θ_0, a
+                parameter set or a mapping of names to values (others default). Other keys are
+                ignored with a warning that names them (PettingZoo's ``api_test`` passes one).
+            prepared: What :meth:`prepare_episode` made of these ``options``, if called already.
+
+        Raises:
+            TypeError: ``options`` is not a mapping.
+            ParamOutOfRange / UnknownParam: An invalid θ_0.
+            ValueError: The monitor cannot serve an episode from this θ_0 (a detector bound
+                to another).
+        """
+        theta0, monitor_memory = prepared or self.prepare_episode(options)
         if self.env_rng is None:
             self.seed(None)
         self.state = self.family.initial_state_under(
@@ -255,6 +283,7 @@ class NSProcess:
         self.last_change = None
         self._step_sizes = self._last_sizes = None
         self.notice = (self.no_change, self.no_change)
+        self._told_by_monitor = True
         self.spent = {}
         self.change_times = []
         self.change_values = []
@@ -418,6 +447,7 @@ class NSProcess:
         """
         self.check_turn(MONITOR, "the monitor's turn")
         self.notice = mask_notification(self.level, flags, sizes, self.no_change)
+        self._told_by_monitor = False  # the configured monitor's knowledge is not the sender's
         self._pending = None
         self.turn = DECISION
 
@@ -532,6 +562,7 @@ class NSProcess:
             # What every step of the view asks: nature's turn and the monitor's, unrolled.
             self._grant(self.nature.act(self))
             self.notice = self._monitor_says()
+            self._told_by_monitor = True
             self.turn = DECISION
             return 0.0, 0
         total, count = 0.0, 0
@@ -544,6 +575,7 @@ class NSProcess:
                 self._grant(self.nature.act(self) if answer is _UNASKED else answer)
             elif turn == MONITOR:  # monitor_turn without re-checking the masked notification
                 self.notice = self._monitor_says() if answer is _UNASKED else answer
+                self._told_by_monitor = True
                 self._pending = None
                 self.turn = DECISION
             elif decide is None:
@@ -595,18 +627,28 @@ class NSProcess:
     def planning_theta(self) -> Params:
         """θ the agent's planning model assumes: θ_0, or at ``detailed`` the latest θ it knows.
 
-        At ``detailed`` an oracle monitor tells the θ behind the last transition (never one
+        At ``detailed`` the exact oracle tells the θ behind the last transition (never one
         nature has chosen for a transition still to come: in the game the agent plans after
-        nature's turn, and must not see it); a detector tells what it believes
-        (:meth:`~ns_pz.monitor.Monitor.believed_theta`, θ_0 if it believes nothing yet), so
-        a planner is never handed more than its monitor knows.
+        nature's turn, and must not see it); an imperfect oracle, the parameters it has reported
+        changed at their reported values (:meth:`~ns_pz.monitor.Monitor.told_changes`); a
+        detector what it believes (:meth:`~ns_pz.monitor.Monitor.believed_theta`, θ_0 if it
+        believes nothing yet); a notification sent by someone else than the configured monitor
+        (the monitor seat played from outside), nothing: θ_0. A planner is never handed more
+        than its monitor knows.
         """
         if not self.level.shows_sizes:
             return self.theta0
+        if not self._told_by_monitor:  # someone else's notification: nothing more than θ_0
+            return self.theta0
         monitor = self.monitor
         if monitor.reads_ground_truth:
-            told = monitor.told_through(self.monitor_memory)
-            return self.last_theta if told is None else self.theta_at(told)
+            told = monitor.told_changes(self.monitor_memory)
+            if told is None:
+                return self.last_theta
+            names = self.param_names
+            return self.theta0.replace(
+                **{names[i]: getattr(self.theta_at(at), names[i]) for i, at in told.items()}
+            )
         believed = monitor.believed_theta(self.monitor_memory)
         return self.theta0 if believed is None else believed
 

@@ -37,8 +37,10 @@ def call_policy(
     """The action of ``policy`` (a callable or an SB3-style model) for ``observation``.
 
     Asked with ``deterministic=False`` and given ``rng``, an SB3-style model samples from torch's
-    generator seeded from ``rng`` (one draw per call) inside ``torch.random.fork_rng``: the
-    sample is reproducible and torch's global state is left as it was.
+    generator (the CPU's, or its CUDA device's) seeded from ``rng`` (one draw per call) inside
+    ``torch.random.fork_rng``: the sample is reproducible and those generators are restored
+    afterwards. The generator is torch's global one, borrowed for the call: do not sample two
+    seats in two threads at once.
     """
     predict = getattr(policy, "predict", None)
     if not callable(predict):
@@ -48,8 +50,13 @@ def call_policy(
         action, _ = predict(observation, deterministic=deterministic)
         return action
     seed = int(rng.integers(2**63))
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(seed)
+    device: Any = getattr(policy, "device", None)  # an SB3 model's; sampling draws on it
+    cuda = [device.index or 0] if getattr(device, "type", None) == "cuda" else []
+    with torch.random.fork_rng(devices=cuda):  # restores exactly the generators seeded below
+        torch.random.default_generator.manual_seed(seed)
+        if cuda:
+            with torch.cuda.device(cuda[0]):
+                torch.cuda.manual_seed(seed)
         action, _ = predict(observation, deterministic=False)
     return action
 

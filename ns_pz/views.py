@@ -126,7 +126,8 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
                 or a mapping of names to values); other keys are ignored with a warning.
 
         Raises:
-            TypeError / ValueError: A bad seed or θ_0.
+            TypeError / ValueError: A bad seed or θ_0, options that are no mapping, or a θ_0
+                the monitor cannot serve (a detector bound to another); nothing changes then.
         """
         process = reset_seeded(self, self._process, seed, options)
         process.play_until(DECISION)
@@ -213,8 +214,8 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
         """A copy of this env at the current state and time, on its own generators.
 
         Args:
-            theta: The θ of the copy; default what :meth:`get_planning_env` uses (θ_0, or the
-                current θ at ``detailed``).
+            theta: The θ of the copy; default what :meth:`get_planning_env` uses (the
+                planning θ: θ_0, or at ``detailed`` the latest θ the agent has been told of).
             keep_nature: Let nature go on acting in the copy (from where its schedule is now)
                 instead of freezing θ.
             retake_turn: With ``keep_nature``, nature moves again in the copy at the current
@@ -298,12 +299,13 @@ def reset_seeded(
     generators go on.
 
     Raises:
-        TypeError / ValueError: A bad seed or θ_0.
+        TypeError / ValueError: A bad seed, θ_0 or options (refused before anything changes).
     """
     seed = check_seed(seed)  # a NumPy integer becomes an int, which Gymnasium insists on
+    prepared = process.prepare_episode(options)
     gym.Env.reset(env, seed=seed)
     if seed is not None or process.env_rng is None:
         process.seed(env.np_random_seed)
         env._np_random = process.env_rng
-    process.reset(options)
+    process.reset(options, prepared=prepared)
     return process

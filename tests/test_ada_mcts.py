@@ -421,6 +421,9 @@ def test_danger_counts_distinct_action_cell_pairs_at_the_threshold():
         ({"base_concentration": float("inf")}, "base_concentration=inf"),
         ({"failure_reward": float("nan")}, "failure_reward=nan"),
         ({"failure_reward": True}, "failure_reward=True"),
+        ({"prior": -1.0}, "prior=-1.0"),
+        ({"prior": True}, "prior=True"),
+        ({"backend": "gpu"}, "backend='gpu'"),
     ],
 )
 def test_ada_mcts_refuses_what_it_would_truncate_or_turn_into_nan(kwargs, match):

@@ -56,6 +56,7 @@ def test_agents_are_reproducible_from_their_generator():
         (lambda: SnapshotValueIteration(gamma=False), "gamma=False"),
         (lambda: SnapshotValueIteration(cache_size=2.5), "cache_size=2.5"),
         (lambda: SnapshotValueIteration(cache_size=True), "cache_size=True"),
+        (lambda: RandomShooting(num_rollouts=0), "num_rollouts=0"),
     ],
 )
 def test_planner_arguments_are_checked_by_name(make, match):
@@ -74,3 +75,9 @@ def test_run_episode_takes_a_gym_make_stack():
     assert (wrapped.episode_return, wrapped.length) == (bare.episode_return, bare.length)
     with pytest.raises(TypeError, match="must be an ns_pz view"):
         run_episode(gym.make("FrozenLake-v1"), SnapshotValueIteration(), 0)
+
+
+def test_planner_counts_take_numpy_integers():
+    """Counts from a NumPy sweep are ints."""
+    assert RandomShooting(depth=np.int64(3)).depth == 3
+    assert SnapshotValueIteration(cache_size=np.int64(4)).cache_size == 4

@@ -87,7 +87,7 @@ def test_fine_tuning_is_reproducible_from_the_agent_generator():
 
 def test_bad_budget_is_refused():
     """A negative budget names the parameter."""
-    with pytest.raises(ValueError, match="model_steps=-1 must be an integer >= 0"):
+    with pytest.raises(ValueError, match="model_steps=-1 must be an int >= 0"):
         agent_entry("ddqn_wn").artefacts(_env(), {"model_steps": -1})
 
 

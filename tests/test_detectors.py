@@ -458,6 +458,40 @@ def _slip_change_at(step: int) -> ScriptedNature:
     return ScriptedNature({"slip": update})
 
 
+def test_a_noisy_oracle_never_leaks_a_missed_change_through_a_later_report():
+    """Only reported parameters reach the planner, at their values of the latest report.
+
+    A later report of a parameter carries its value then; a missed change to another parameter
+    stays unknown.
+    """
+    nature = ScriptedNature(
+        {
+            "masspole": StepWiseUpdate(DiscreteScheduler([1, 2]), [0.2, 0.3]),
+            "length": StepWiseUpdate(DiscreteScheduler([3]), [0.6]),
+        }
+    )
+    for seed in range(40):
+        env = ns_pz.make_gym(
+            "ns_pz/CartPole-v0",
+            nature=nature,
+            monitor=NoisyOracleMonitor(miss_probability=0.5),
+            notification="detailed",
+        )
+        env.reset(seed=seed)
+        told: dict[str, float] = {}
+        names = env.unwrapped.process.param_names
+        truth = env.unwrapped.process
+        for _ in range(6):
+            obs, *_ = env.step(0)
+            for i in np.flatnonzero(obs["env_change"]):
+                # the value after the reported change is what the planner may know of it
+                told[names[i]] = getattr(truth.theta_at(truth.t - 1), names[i])
+            planned = env.planning_model().theta
+            for name in ("masspole", "length"):
+                expected = told.get(name, getattr(truth.theta0, name))
+                assert getattr(planned, name) == expected, (seed, name)
+
+
 @pytest.mark.parametrize(
     ("monitor", "told_at"),
     [
@@ -507,6 +541,7 @@ def test_the_prediction_error_detector_predicts_from_the_episodes_theta0():
     )
     cart.reset(seed=0, options={"params": {"masspole": 0.3}})
     assert cart.planning_model().theta.masspole == 0.3
+    assert cart.planning_model().theta.masspole == 0.3
     alarms = 0
     for step in range(40):
         obs, _, terminated, truncated, _ = cart.step(step % 2)
@@ -526,6 +561,8 @@ def test_the_prediction_error_detector_predicts_from_the_episodes_theta0():
         (lambda: PredictionErrorMonitor(threshold=True), "threshold=True"),
         (lambda: PredictionErrorMonitor(factors="12"), "factors='12'"),
         (lambda: PredictionErrorMonitor(factors=[0.5, -1.0]), r"factors\[...\]=-1.0"),
+        (lambda: PredictionErrorMonitor(params=3), "params=3 must be a list"),
+        (lambda: TabularCusumMonitor(window=2.5), "window=2.5 must be an int"),
     ],
 )
 def test_detector_arguments_are_checked_by_name(make, match):
@@ -561,3 +598,10 @@ def test_scoring_and_numpy_counts_take_integers_and_name_the_rest():
     env = ns_pz.make_gym("ns_pz/CartPole-v0", max_episode_steps=np.int64(3))
     env.reset(seed=0)
     assert [env.step(0)[3] for _ in range(3)] == [False, False, True]
+
+
+def test_detectors_take_generators_and_numpy_counts():
+    """A generator of names is read once; NumPy integers are ints."""
+    watched = PredictionErrorMonitor(params=(name for name in ["masspole"]), window=np.int64(5))
+    assert watched.watched == ("masspole",) and watched.window == 5
+    assert TabularCusumMonitor(window=np.int64(7)).window == 7

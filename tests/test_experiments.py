@@ -693,8 +693,14 @@ def test_results_get_the_permissions_a_plain_open_gives(tmp_path: Path) -> None:
     import os
     import stat
 
-    mask = os.umask(0)
-    os.umask(mask)
-    run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
-    for path in (tmp_path / "out" / "results.csv", tmp_path / "out" / "spec.json"):
-        assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask, path
+    mask = os.umask(0o022)  # tempfile's 0600 is then wrong, whatever the caller's umask
+    try:
+        run_spec(load_spec(write_spec(tmp_path)), tmp_path / "out", LocalBackend(1))
+        results = tmp_path / "out" / "results.csv"
+        for path in (results, tmp_path / "out" / "spec.json"):
+            assert stat.S_IMODE(path.stat().st_mode) == 0o644, path
+        results.chmod(0o640)  # the user's own choice survives a rewrite
+        ResultStore(tmp_path / "out").write_csv()
+        assert stat.S_IMODE(results.stat().st_mode) == 0o640
+    finally:
+        os.umask(mask)

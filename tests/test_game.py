@@ -496,3 +496,36 @@ def test_a_size_is_shown_only_with_its_flag():
     sizes = np.array([0.25, 0.5, 0, 0, 0, 0], np.float32)
     game.step({"env_change": flags, "delta_change": sizes})
     assert game.observe(DECISION)["delta_change"].tolist() == [0.25, 0, 0, 0, 0, 0]
+
+
+def test_a_notification_from_outside_gives_the_planner_nothing_beyond_theta0():
+    """The monitor's turn played by the caller: the planner keeps θ_0.
+
+    The configured oracle's knowledge is not the sender's (it had the truth with no flag sent).
+    """
+    nature = ScriptedNature({"masspole": IncrementUpdate(DiscreteScheduler([1]), k=0.1)})
+    game = ns_pz.make("ns_pz/CartPole-v0", nature=nature, notification="detailed")
+    game.reset(seed=0)
+    count = len(game.family.params_cls.names())
+    for _ in range(3):
+        game.step(game.policy_action(NATURE))
+        game.step(quiet(count))
+        assert game.planning_model().theta.masspole == pytest.approx(0.1)
+        game.step(0)
+    game.step(game.policy_action(NATURE))
+    game.step(game.policy_action(MONITOR))  # the configured oracle again: the truth
+    assert game.planning_model().theta.masspole == pytest.approx(0.2)
+
+
+def test_a_refused_reset_leaves_the_episode_and_its_generators_alone():
+    """A detector refusing an episode's θ_0 refuses before the reseed."""
+    from ns_pz.monitor import TabularCusumMonitor
+
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", monitor=TabularCusumMonitor())
+    env.reset(seed=0)
+    env.step(1)
+    before = (env.np_random_seed, env.process.t, env.process.env_rng.bit_generator.state)
+    with pytest.raises(ValueError, match="bound to θ_0"):
+        env.reset(seed=123, options={"params": {"slip": (0.5, 0.25, 0.25)}})
+    after = (env.np_random_seed, env.process.t, env.process.env_rng.bit_generator.state)
+    assert after == before

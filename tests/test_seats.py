@@ -691,3 +691,35 @@ def test_nature_observation_layout_entry_by_entry(
         assert observation.dtype == np.float32
         assert observation.tolist() == np.array(expected, np.float32).tolist()
         assert interface.observation_space.contains(observation)
+
+
+def test_a_learning_monitor_gives_the_agents_planner_nothing_beyond_theta0():
+    """Its flags are the learner's, not the configured oracle's: the planner keeps θ_0."""
+    seen = []
+    env = ns_pz.single_agent(
+        "ns_pz/CartPole-v0",
+        MONITOR,
+        {DECISION: push_left},
+        monitor_reward="detection",
+        notification="detailed",
+        nature=ns_pz.nature.ScriptedNature(
+            {"masspole": ns_pz.nature.IncrementUpdate(ns_pz.nature.DiscreteScheduler([1]), k=0.1)}
+        ),
+    )
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(np.zeros(6, np.int64))
+        seen.append(env.process.planning_theta().masspole)
+    assert seen == [0.1, 0.1, 0.1]
+
+
+def test_a_policy_nature_pickles_after_acting():
+    """Its record of checked environments is not pickled (weak references)."""
+    import pickle
+
+    nature = PolicyNature(lean_nature)
+    view = ns_pz.single_agent("ns_pz/CartPole-v0", DECISION, {NATURE: nature})
+    view.reset(seed=0)
+    view.step(0)
+    again = pickle.loads(pickle.dumps(nature))
+    assert again.action == nature.action and len(again._checked) == 0

@@ -12,6 +12,7 @@ from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import NumpyMLP, features
 from ns_pz.agents.learning.trained import ddqn_needed, obtain, torch_module
 
+from ns_pz.monitor.monitors import count
 from ns_pz.views import NSGymEnv
 
 
@@ -75,9 +76,8 @@ def check_fine_tuning(model_steps: Any, gradient_steps: Any, epsilon: Any) -> No
         ValueError: A count that is not an int >= 0, or ``epsilon`` outside [0, 1].
         TypeError: ``epsilon`` is not a real number.
     """
-    for name, value in (("model_steps", model_steps), ("gradient_steps", gradient_steps)):
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise ValueError(f"{name}={value!r} must be an integer >= 0")
+    count("model_steps", model_steps, 0)
+    count("gradient_steps", gradient_steps, 0)
     if isinstance(epsilon, bool) or not isinstance(epsilon, (int, float)):
         raise TypeError(f"epsilon={epsilon!r} must be a real number in [0, 1]")
     if not 0.0 <= epsilon <= 1.0:

@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 from ns_pz.agents.base import Agent
+from ns_pz.agents.search.compiled import BACKENDS
 from ns_pz.agents.search.dirichlet import (
     POOLINGS,
     DirichletLearner,
@@ -177,6 +178,10 @@ class ADAMCTS(Agent):
             or not 0 < base_concentration < math.inf
         ):
             raise ValueError(f"base_concentration={base_concentration!r} must be finite and > 0")
+        if isinstance(prior, bool) or not (isinstance(prior, Real) and 0 < prior < math.inf):
+            raise ValueError(f"prior={prior!r} must be finite and > 0")
+        if backend not in BACKENDS:
+            raise ValueError(f"backend={backend!r} is not a backend; allowed: {list(BACKENDS)}")
         if pooling not in POOLINGS:
             raise ValueError(f"pooling={pooling!r} is not a pooling; allowed: {list(POOLINGS)}")
         if failure_reward is not None and (

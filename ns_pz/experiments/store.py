@@ -146,7 +146,7 @@ class ResultStore:
                 writer.writerow({column: row.get(column) for column in COLUMNS})
             handle.flush()
             os.fsync(handle.fileno())
-        as_if_created(handle.name)
+        as_if_created(handle.name, replacing=path)
         os.replace(handle.name, path)
         return path
 
@@ -181,5 +181,5 @@ def _write_atomic(path: Path, text: str) -> None:
         handle.write(text)
         handle.flush()
         os.fsync(handle.fileno())
-    as_if_created(handle.name)
+    as_if_created(handle.name, replacing=path)
     os.replace(handle.name, path)

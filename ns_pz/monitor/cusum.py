@@ -48,6 +48,7 @@ from ns_pz.monitor.monitors import (
     Detector,
     Flags,
     Sizes,
+    count,
     has_transition,
     positive_number,
     silence,
@@ -121,8 +122,7 @@ class TabularCusumMonitor(Detector):
         window: int = 1000,
         params: Sequence[str] | None = None,
     ) -> None:
-        if isinstance(window, bool) or not isinstance(window, int) or window < 1:
-            raise ValueError(f"window={window!r} must be an int >= 1")
+        window = count("window", window)
         if not isinstance(grid_step, (int, float)) or not 0.0 < grid_step <= 1.0:
             raise ValueError(f"grid_step={grid_step!r} must be in (0, 1] and divide 1")
         if abs(round(1.0 / grid_step) * grid_step - 1.0) > 1e-9:

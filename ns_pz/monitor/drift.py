@@ -63,6 +63,7 @@ from ns_pz.monitor.monitors import (
     Detector,
     Flags,
     Sizes,
+    count,
     has_transition,
     positive_number,
     silence,
@@ -126,8 +127,7 @@ class PredictionErrorMonitor(Detector):
     ) -> None:
         self.threshold = positive_number("threshold", threshold)
         self.tolerance = positive_number("tolerance", tolerance)
-        if isinstance(window, bool) or not isinstance(window, int) or window < 1:
-            raise ValueError(f"window={window!r} must be an int >= 1")
+        window = count("window", window)
         if isinstance(factors, str) or not factors:
             raise ValueError(f"factors={factors!r} must be a non-empty list of finite numbers > 0")
         self.factors = tuple(positive_number("factors[...]", f) for f in factors)

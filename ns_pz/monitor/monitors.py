@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -64,11 +64,13 @@ class Monitor(ABC):
         """
         return None
 
-    def told_through(self, memory: Any) -> int | None:
-        """For a monitor that :attr:`reads_ground_truth`: the last transition it has told of.
+    def told_changes(self, memory: Any) -> Mapping[int, int] | None:
+        """For a monitor that :attr:`reads_ground_truth`: what of the truth it has told.
 
-        The planner at ``detailed`` gets the θ in force at that transition (θ_0 for ``-1``,
-        nothing told yet). ``None`` (the default, the exact oracle): every transition so far.
+        For each parameter (by index) whose change it has reported, the latest transition whose
+        change to it was reported; the planner at ``detailed`` gets θ_0 with those parameters
+        at their values of those transitions, and nothing of a change it missed or has not
+        reported yet. ``None`` (the default, the exact oracle): everything so far.
         """
         return None
 
@@ -129,12 +131,29 @@ def watched_names(params: Any) -> tuple[str, ...] | None:
     """
     if params is None:
         return None
-    if isinstance(params, str) or not all(isinstance(name, str) for name in params):
-        raise TypeError(f"params={params!r} must be a list of parameter names, e.g. ['slip']")
-    names = tuple(params)
+    wanted = f"params={params!r} must be a list of parameter names, e.g. ['slip']"
+    if isinstance(params, str):  # it would read as its letters
+        raise TypeError(wanted)
+    try:
+        names = tuple(params)  # once: a generator is consumed by reading it
+    except TypeError:
+        raise TypeError(wanted) from None
+    if not all(isinstance(name, str) for name in names):
+        raise TypeError(f"params={list(names)!r} must be a list of parameter names")
     if not names:
         raise ValueError("params=[] watches nothing; give at least one name, or None for all")
     return names
+
+
+def count(name: str, value: Any, low: int = 1) -> int:
+    """``value`` as an int if it is an integer (NumPy's too, not a bool) >= ``low``.
+
+    Raises:
+        ValueError: Anything else.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ValueError(f"{name}={value!r} must be an int >= {low}")
+    return int(value)
 
 
 def positive_number(name: str, value: Any) -> float:

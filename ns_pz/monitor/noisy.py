@@ -9,9 +9,9 @@ its notifications depend on the seed and the change times only.
 
 It must be asked at every transition, with the true sizes (zeros where nothing changed): its
 class attribute :attr:`~ns_pz.monitor.Monitor.quiet_without_change` is ``False``. At
-``detailed`` the agent's planner gets the θ of the latest transition whose change it has
-reported (:meth:`NoisyOracleMonitor.told_through`): a missed or not yet reported change stays
-unknown to it, as to the agent.
+``detailed`` the agent's planner gets θ_0 with each parameter it has reported changed at its
+value of the latest reported change (:meth:`NoisyOracleMonitor.told_changes`): a missed or not
+yet reported change stays unknown to it, as to the agent.
 """
 
 from __future__ import annotations
@@ -36,8 +36,9 @@ class NoisyOracleMemory:
         reported yet."""
         self.alarms: list[int] = []
         """Transition indices whose notification raised an alarm."""
-        self.told = -1
-        """The latest transition whose change has been reported (-1: none)."""
+        self.told: dict[int, int] = {}
+        """For each parameter index reported changed: the latest transition of a reported
+        change to it."""
 
 
 class NoisyOracleMonitor(Monitor):
@@ -84,11 +85,11 @@ class NoisyOracleMonitor(Monitor):
         """Nothing pending."""
         return NoisyOracleMemory()
 
-    def told_through(self, memory: NoisyOracleMemory) -> int:
-        """The latest transition whose change it has reported (-1: none yet).
+    def told_changes(self, memory: NoisyOracleMemory) -> dict[int, int]:
+        """Each parameter it has reported changed, with the transition of its latest report.
 
-        A planner at ``detailed`` gets the θ of that transition, never a change it missed or
-        has not reported yet.
+        A planner at ``detailed`` gets those parameters at their values of those transitions and
+        θ_0 elsewhere: never a change it missed or has not reported yet.
         """
         return memory.told
 
@@ -115,7 +116,10 @@ class NoisyOracleMonitor(Monitor):
         due = [entry for entry in memory.pending if entry[0] <= transition]
         memory.pending = [entry for entry in memory.pending if entry[0] > transition]
         if due:
-            memory.told = max(memory.told, *(at for _, at, _ in due))
+            for _, at, reported in due:
+                for index, size in enumerate(reported):
+                    if size > 0.0 and at > memory.told.get(index, -1):
+                        memory.told[index] = at
             sizes = tuple(math.fsum(column) for column in zip(*(s for *_, s in due), strict=True))
             memory.alarms.append(transition)
             return tuple(int(s > 0.0) for s in sizes), sizes

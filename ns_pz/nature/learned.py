@@ -8,6 +8,7 @@ through the one :class:`~ns_pz.nature.interface.NatureInterface` of the process 
 
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -67,7 +68,8 @@ class PolicyNature(Nature):
         self.observes_state = observes_state
         self.default_step = check_default_step(default_step)
         self.deterministic = check_deterministic(deterministic)
-        self._checked: NatureInterface | None = None  # the interface the spaces were checked on
+        # The interfaces (one per environment it drives) its spaces were checked against.
+        self._checked: weakref.WeakSet[NatureInterface] = weakref.WeakSet()
 
     def act(self, process: NSProcess) -> Proposal:
         """Observe ``process`` as a learner in nature's seat would, and decode the action.
@@ -76,7 +78,7 @@ class PolicyNature(Nature):
             ValueError: The policy's own spaces are not nature's in this environment.
         """
         interface = process.nature_interface(self.action, self.observes_state, self.default_step)
-        if interface is not self._checked:
+        if interface not in self._checked:
             check_policy_spaces(
                 self.policy,
                 interface.observation_space,
@@ -85,12 +87,22 @@ class PolicyNature(Nature):
                 f" (action={self.action!r}, observes_state={self.observes_state}: was it "
                 "trained with other ones, or on another environment?)",
             )
-            self._checked = interface
+            self._checked.add(interface)
         observation = interface.observe(process)
         action = call_policy(
             self.policy, observation, deterministic=self.deterministic, rng=process.nature_rng
         )
         return interface.proposal(np.asarray(action), process.theta)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without the checked interfaces (weak references; checked again after)."""
+        state = dict(self.__dict__)
+        del state["_checked"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._checked = weakref.WeakSet()
 
     def propose(
         self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
