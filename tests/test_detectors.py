@@ -605,3 +605,31 @@ def test_detectors_take_generators_and_numpy_counts():
     watched = PredictionErrorMonitor(params=(name for name in ["masspole"]), window=np.int64(5))
     assert watched.watched == ("masspole",) and watched.window == 5
     assert TabularCusumMonitor(window=np.int64(7)).window == 7
+
+
+def test_an_alarm_at_reset_is_a_false_alarm_for_both_scorings():
+    """α = -1 (flag on the reset observation) is scored, as DetectionReward scores it."""
+    from ns_pz import DECISION, MONITOR
+
+    assert score_episode([3], [-1, 3], 10).false_alarms == 1
+    with pytest.raises(ValueError, match=r"must lie in \[-1, steps\)"):
+        score_episode([], [-2], 10)
+    with pytest.raises(ValueError, match=r"must lie in \[0, steps\)"):
+        score_episode([-1], [], 10)
+    seat = ns_pz.single_agent(
+        "ns_pz/CartPole-v0",
+        MONITOR,
+        {DECISION: lambda obs: 0},
+        monitor_reward=ns_pz.seats.DetectionReward(1.0),
+        notification="basic",
+        max_episode_steps=5,
+    )
+    seat.reset(seed=0)
+    total, steps, done = 0.0, 0, False
+    while not done:
+        _, reward, terminated, truncated, _ = seat.step(np.ones(6, np.int64))
+        total += reward
+        steps += 1
+        done = terminated or truncated
+    alarms = list(range(-1, steps - 1))  # every monitor turn flags: about transitions -1 ..
+    assert score_episode([], alarms, steps).false_alarms == -total == steps

@@ -11,7 +11,9 @@ When an alarm is a detection, and when a false alarm:
   change). The first alarm inside that interval, and no later than ``τ_i + max_delay`` when a
   ``max_delay`` is given, detects change ``i``; its delay is ``α - τ_i``.
 * Every other alarm is a false alarm: one before the first change, a second alarm for the same
-  change, one after ``max_delay`` has run out.
+  change, one after ``max_delay`` has run out. An alarm at reset, before any transition
+  (``α = -1``: the observation at ``relative_time`` 0), is one too (as for
+  :func:`detection_reward`).
 * A change with no detecting alarm is missed (it may simply come too close to the episode's end).
 * False alarms per 1,000 steps = ``1000 * false alarms / steps``, ``steps`` being the episode's
   transitions.
@@ -86,12 +88,13 @@ def score_episode(
 
     Args:
         change_times: Transition index of each true change, increasing.
-        alarm_times: Transition index of each alarm, increasing.
-        steps: Transitions in the episode (alarms and changes are at ``0 .. steps - 1``).
+        alarm_times: Transition index of each alarm, increasing (``-1``: at reset).
+        steps: Transitions in the episode (changes are at ``0 .. steps - 1``, alarms at
+            ``-1 .. steps - 1``).
         max_delay: Longest delay that still counts as a detection; ``None``: any.
 
     Raises:
-        ValueError: Times not strictly increasing, outside ``[0, steps)``, a negative
+        ValueError: Times not strictly increasing, outside their ranges, a negative
             ``steps`` or ``max_delay``.
     """
     if isinstance(steps, bool) or not isinstance(steps, numbers.Integral) or steps < 0:
@@ -102,7 +105,7 @@ def score_episode(
     ):
         raise ValueError(f"max_delay={max_delay!r} must be an int >= 0 or None")
     changes = _check_times("change_times", change_times, steps)
-    alarms = _check_times("alarm_times", alarm_times, steps)
+    alarms = _check_times("alarm_times", alarm_times, steps, first=-1)
     delays = []
     detecting = 0
     for i, start in enumerate(changes):
@@ -202,7 +205,7 @@ def detection_reward(
     return (-1.0, True) if undetected_change else (0.0, False)
 
 
-def _check_times(name: str, times: Sequence[int], steps: int) -> list[int]:
+def _check_times(name: str, times: Sequence[int], steps: int, first: int = 0) -> list[int]:
     result: list[int] = []
     for value in times:
         if (
@@ -215,6 +218,6 @@ def _check_times(name: str, times: Sequence[int], steps: int) -> list[int]:
         result.append(int(value))
     if any(b <= a for a, b in zip(result, result[1:], strict=False)):
         raise ValueError(f"{name}={list(times)!r} must be strictly increasing")
-    if result and (result[0] < 0 or result[-1] >= steps):
-        raise ValueError(f"{name}={list(times)!r} must lie in [0, steps) with steps={steps}")
+    if result and (result[0] < first or result[-1] >= steps):
+        raise ValueError(f"{name}={list(times)!r} must lie in [{first}, steps) with steps={steps}")
     return result
