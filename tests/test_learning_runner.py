@@ -116,3 +116,43 @@ def test_train_command_builds_then_finds_the_networks(tmp_path):
     # Both networks are cached: a run here loads them, so the projection has no training.
     assert sum(line.endswith("s)") and ": cached (trained in" in line for line in lines) == 2
     assert "of which training 0 s" in lines[-1]
+
+
+def test_sigterm_during_parallel_training_stops_the_workers_at_once(tmp_path):
+    """Training in worker processes stops with the run, instead of running to its end."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    head = SPEC[: SPEC.index("[[agents]]")]
+    agents = "".join(
+        f'[[agents]]\nname = "ddqn"\nlabel = "D{steps}"\n'
+        f"params = {{ total_steps = {steps}, learning_starts = 100 }}\n\n"
+        for steps in (400_000, 400_001)  # two distinct networks, minutes of training each
+    )
+    path = tmp_path / "long.toml"
+    path.write_text(head + agents)
+    env = {**os.environ, "NS_PZ_CACHE_DIR": str(tmp_path / "cache"), "OMP_NUM_THREADS": "1"}
+    argv = [sys.executable, "-m", "ns_pz.cli", "bench", "run", str(path), "--workers", "2"]
+    run = subprocess.Popen(
+        [*argv, "--out", str(tmp_path / "out")],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        line = run.stderr.readline()  # the first: how many networks it trains
+        assert "needs 2 trained network(s)" in line, line
+        time.sleep(6)  # the two workers are training now
+        assert run.poll() is None
+        run.send_signal(signal.SIGTERM)
+        started = time.monotonic()
+        run.wait(timeout=30)  # it waited for the training to end: minutes
+        assert time.monotonic() - started < 10
+        assert run.returncode != 0
+        assert not list((tmp_path / "cache").rglob("weights.npz"))  # nothing finished
+    finally:
+        run.kill()

@@ -9,10 +9,8 @@ cache, training it first (under the key's lock) if it is missing. Training impor
 from __future__ import annotations
 
 import importlib
-import multiprocessing
 import time
 from collections.abc import Callable, Mapping
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +23,7 @@ from ns_pz.agents.learning.features import feature_size
 
 from ns_pz import __version__
 from ns_pz.views import NSGymEnv
+from ns_pz.workers import new_pool, stop_pool
 
 #: Bump a learner's number when its training changes what it produces.
 CODE_VERSIONS = {"ddqn": "1", "alphazero": "1"}
@@ -141,9 +140,13 @@ def prepare(
     """
     distinct = list({need.request.key: need for need in needs}.values())
     if workers > 1 and sum(not exists(n.request, root) for n in distinct) > 1:
-        context = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(min(workers, len(distinct)), mp_context=context) as pool:
+        pool = new_pool(min(workers, len(distinct)))
+        clean = False
+        try:
             results = list(pool.map(_prepare_one, distinct, [root] * len(distinct)))
+            clean = True
+        finally:
+            stop_pool(pool, clean)  # interrupted: the training workers stop now
     else:
         results = [_prepare_one(need, root) for need in distinct]
     spent = 0.0

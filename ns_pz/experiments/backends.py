@@ -9,14 +9,11 @@ extra (``pip install "ns_pz[ray]"``) and is imported only when chosen.
 from __future__ import annotations
 
 import contextlib
-import multiprocessing
 import os
 import tempfile
-import threading
-import time
 from abc import ABC, abstractmethod
 from collections.abc import Generator, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
@@ -24,6 +21,7 @@ from typing import Any
 import ns_pz
 from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.trials import Trial, error_row, run_trial
+from ns_pz.workers import new_pool, stop_pool
 
 BACKENDS = ("local", "ray")
 
@@ -72,10 +70,7 @@ class LocalBackend(Backend):
         Returns:
             ``(not started, in flight when the pool broke)``: both empty after a clean run.
         """
-        context = multiprocessing.get_context("spawn")
-        pool = ProcessPoolExecutor(
-            workers, mp_context=context, initializer=_die_with_parent, initargs=(os.getpid(),)
-        )
+        pool = new_pool(workers)
         pending: dict[Future[dict], Trial] = {}
         queue = list(reversed(trials))
         clean = False
@@ -99,22 +94,8 @@ class LocalBackend(Backend):
                     return list(reversed(queue)), list(pending.values())
             clean = True
         finally:
-            if not clean:  # interrupted or broken: stop the workers now, do not wait for them
-                for process in list(getattr(pool, "_processes", {}).values()):
-                    process.terminate()
-            pool.shutdown(wait=clean, cancel_futures=True)
+            stop_pool(pool, clean)  # interrupted or broken: the workers stop now
         return [], []
-
-
-def _die_with_parent(parent: int) -> None:
-    """Pool initializer: end this worker if the process that started it goes away (kill -9)."""
-
-    def watch() -> None:
-        while os.getppid() == parent:
-            time.sleep(1.0)
-        os._exit(1)
-
-    threading.Thread(target=watch, daemon=True).start()
 
 
 class RayBackend(Backend):
