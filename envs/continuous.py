@@ -62,7 +62,7 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(
             f"action={action!r} is not a numeric array; allowed: finite values of shape "
-            f"{space.shape} (clipped into {clipping})"
+            f"{space.shape} (the action space is {clipping})"
         ) from None
     if array.shape != space.shape:
         raise ValueError(
@@ -72,7 +72,7 @@ def check_box_action(space: spaces.Box, action: Any) -> np.ndarray:
     finite = math.isfinite(array.item()) if array.size == 1 else bool(np.isfinite(array).all())
     if not finite:
         raise ValueError(
-            f"action={action!r} is not finite; allowed: finite values (out-of-range ones are "
-            f"clipped into {clipping})"
+            f"action={action!r} is not finite; allowed: finite values of shape {space.shape} "
+            f"(the action space is {clipping}; the dynamics decide what lies beyond it)"
         )
     return array

@@ -310,3 +310,8 @@ def test_mujoco_wrapper_refuses_what_it_cannot_run():
         MujocoWrapper(gym.make("CartPole-v1"), {})
     with pytest.raises(ValueError, match="ctrl_cost_weight"):
         MujocoWrapper(gym.make("HalfCheetah-v5", ctrl_cost_weight=0.5), {})
+    # named by the setting itself, not by EzPickle's copy of every argument
+    with pytest.raises(ValueError, match="built with frame_skip=10 "):
+        MujocoWrapper(gym.make("HalfCheetah-v5", frame_skip=10), {})
+    with pytest.raises(ValueError, match="built with reset_noise_scale=0.5 "):
+        MujocoWrapper(gym.make("HalfCheetah-v5", reset_noise_scale=0.5), {})

@@ -3,8 +3,9 @@
 Modules, under NS-Gym's paths: :mod:`ns_pz.compat.base` (``Scheduler``, ``UpdateFn``,
 ``UpdateDistributionFn``, ``Reward``, ``TUNABLE_PARAMS``, ``NSWrapper``),
 :mod:`ns_pz.compat.schedulers`, :mod:`ns_pz.compat.update_functions` (``single_param`` and
-``distribution``), :mod:`ns_pz.compat.wrappers` (``classic_control`` and ``toy_text``; NS-Gym's
-MuJoCo, Box2D and pursuit-evasion wrappers raise ``ImportError``: ns_pz has no such family) and
+``distribution``), :mod:`ns_pz.compat.wrappers` (``classic_control``, ``toy_text`` and, with the
+``mujoco`` extra, ``MujocoWrapper``; NS-Gym's Box2D and pursuit-evasion wrappers raise
+``ImportError``: ns_pz has no such family) and
 :mod:`ns_pz.compat.envs` (``envs.Bridge``, registered as ``ns_pz_compat/Bridge-v0``). Not
 provided: ``ns_gym.utils``, ``evaluate``, ``benchmark_algorithms``, ``context_switching``.
 

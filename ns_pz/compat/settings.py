@@ -109,8 +109,8 @@ def check_base_env(env: gym.Env[Any, Any], binding: Binding) -> dict[str, Any]:
     honoured = HONOURED.get(binding.env_class, ())
     skip = STATE | set(binding.names) | set(DERIVED.get(binding.env_class, ())) | set(honoured)
     for name in sorted((set(vars(base)) | set(vars(default))) - skip):
-        if name.endswith(("_img", "_imgs")):
-            continue
+        if name.endswith(("_img", "_imgs")) or name.lstrip("_").startswith("ezpickle_"):
+            continue  # pictures; EzPickle's copy of the arguments (the setting itself is named)
         value, usual = getattr(base, name, None), getattr(default, name, None)
         if not _same(value, usual):
             public = name.lstrip("_")
