@@ -15,7 +15,7 @@ from ns_pz.agents.base import Agent
 from ns_pz.agents.exact.induction import backward_induction, check_gamma
 from ns_pz.agents.exact.schedule import check_horizon
 
-from ns_pz.monitor.monitors import count
+from ns_pz.checks import count
 from ns_pz.params import Params
 from ns_pz.planning import TabularOutcomes
 

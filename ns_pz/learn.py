@@ -19,7 +19,6 @@ from __future__ import annotations
 import inspect
 import json
 import math
-import numbers
 import os
 import statistics
 import sys
@@ -35,6 +34,7 @@ from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.logger import HumanOutputFormat, KVWriter, Logger
 
+from ns_pz.checks import count
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.process import DECISION, NATURE
@@ -60,7 +60,7 @@ class TrainArgs:
         algo = getattr(stable_baselines3, self.algo, None) if isinstance(self.algo, str) else None
         if not (isinstance(algo, type) and issubclass(algo, BaseAlgorithm)):
             raise ValueError(f"algo={self.algo!r} is not a Stable-Baselines3 algorithm")
-        object.__setattr__(self, "total_timesteps", _count("total_timesteps", self.total_timesteps))
+        object.__setattr__(self, "total_timesteps", count("total_timesteps", self.total_timesteps))
         if not isinstance(self.hyperparameters, Mapping):
             raise TypeError(
                 f"hyperparameters={self.hyperparameters!r} must be a mapping of keyword arguments"
@@ -73,17 +73,6 @@ class TrainArgs:
                     f"hyperparameters[{name!r}] is not allowed for {self.algo} ({why}); "
                     f"allowed: {sorted(allowed)}"
                 )
-
-
-def _count(name: str, value: Any) -> int:
-    """``value`` as an int >= 1 (NumPy integers too).
-
-    Raises:
-        ValueError: Not an integer (``bool`` included) or below 1.
-    """
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"{name}={value!r} must be an int >= 1")
-    return int(value)
 
 
 _SET_BY_TRAINING = frozenset({"self", "policy", "env", "seed", "_init_setup_model"})
@@ -223,8 +212,8 @@ def rarl(
     Raises:
         ValueError: ``rounds`` or ``eval_episodes`` below 1, or ``out_dir`` holds a run.
     """
-    rounds = _count("rounds", rounds)
-    eval_episodes = _count("eval_episodes", eval_episodes)
+    rounds = count("rounds", rounds)
+    eval_episodes = count("eval_episodes", eval_episodes)
     if out_dir is not None:
         held = [
             p.name

@@ -23,6 +23,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from gymnasium import spaces
 
+from ns_pz.checks import flag
+
 if TYPE_CHECKING:
     from ns_pz.process import NSProcess
 
@@ -125,17 +127,6 @@ def _same_layout(own: spaces.Space[Any], expected: spaces.Space[Any]) -> bool:
     return own.shape == expected.shape
 
 
-def check_deterministic(deterministic: Any) -> bool:
-    """``deterministic`` if it is a bool.
-
-    Raises:
-        TypeError: It is not.
-    """
-    if not isinstance(deterministic, bool):
-        raise TypeError(f"deterministic={deterministic!r} must be a bool")
-    return deterministic
-
-
 def is_agent(policy: Any) -> bool:
     """Whether ``policy`` is an ns_pz ``Agent`` (``act(obs, model)``, no SB3 ``predict``)."""
     return callable(getattr(policy, "act", None)) and not callable(getattr(policy, "predict", None))
@@ -155,7 +146,7 @@ class DecisionPolicy:
     def __init__(self, policy: Any, *, deterministic: bool = True) -> None:
         check_policy(policy, "agent")
         self.policy = policy
-        self.deterministic = check_deterministic(deterministic)
+        self.deterministic = flag("deterministic", deterministic)
         self._agent = is_agent(policy)
         self._rng: np.random.Generator | None = None
 

@@ -23,6 +23,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 from gymnasium import spaces
 
+from ns_pz.checks import flag
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor, as_flags
 from ns_pz.monitor.scoring import detection_reward
@@ -33,8 +34,8 @@ from ns_pz.observations import monitor_flags_space, monitor_observation_space
 from ns_pz.process import AGENTS, DECISION, MONITOR, NATURE, NSProcess
 from ns_pz.regret import NATURE_REWARDS, NatureReward, RegretReference, default_reference
 from ns_pz.rendering import Renderer, render_metadata
-from ns_pz.seat_policies import DecisionPolicy, check_deterministic, check_policy
-from ns_pz.views import ProcessEnv, check_flag, reset_seeded
+from ns_pz.seat_policies import DecisionPolicy, check_policy
+from ns_pz.views import ProcessEnv, reset_seeded
 
 MonitorRewardFn = Callable[[NSProcess, tuple], float]
 """``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
@@ -146,7 +147,7 @@ def single_agent(
         "monitor_reward": monitor_reward,
     }
     _check_seat_options(learner, policies, env_kwargs, **options)
-    check_deterministic(deterministic)
+    flag("deterministic", deterministic)
     if NATURE in policies:
         env_kwargs["nature"] = _as_nature(
             policies[NATURE], nature_action, nature_observes_state, default_step, deterministic
@@ -189,8 +190,7 @@ def _check_seat_options(
         raise ValueError(f"nature_reward={nature_reward!r}; allowed: {NATURE_REWARDS}")
     if nature_action not in NATURE_ACTIONS:
         raise ValueError(f"nature_action={nature_action!r}; allowed: {NATURE_ACTIONS}")
-    if not isinstance(nature_observes_state, bool):
-        raise TypeError(f"nature_observes_state={nature_observes_state!r} must be a bool")
+    flag("nature_observes_state", nature_observes_state)
     check_default_step(default_step)
     if not (monitor_reward is None or monitor_reward == "detection" or callable(monitor_reward)):
         raise ValueError(
@@ -306,7 +306,7 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
         self._renderer = Renderer(process.family, render_mode)
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, **render_metadata(process.family)}
-        self._ground_truth_info = check_flag("ground_truth_info", ground_truth_info)
+        self._ground_truth_info = flag("ground_truth_info", ground_truth_info)
         if learner == NATURE:
             if nature_reward == "regret" and regret_reference is None:
                 regret_reference = default_reference(process.family)

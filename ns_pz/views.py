@@ -21,6 +21,7 @@ from typing import Any, SupportsFloat
 
 import gymnasium as gym
 
+from ns_pz.checks import flag
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import Monitor
 from ns_pz.monitor.notification import NotificationLevel
@@ -107,7 +108,7 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
             constraints=constraints,
             max_episode_steps=max_episode_steps,
         )
-        self._ground_truth_info = check_flag("ground_truth_info", ground_truth_info)
+        self._ground_truth_info = flag("ground_truth_info", ground_truth_info)
         self._renderer = Renderer(family, render_mode)
         self.render_mode = render_mode
         self.metadata = {**type(self).metadata, **render_metadata(family)}
@@ -233,9 +234,8 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
                 f"theta={theta!r} must be a {params_cls.__name__} (e.g. "
                 "env.process.theta.replace(name=value)) or None"
             )
-        for name, flag in (("keep_nature", keep_nature), ("retake_turn", retake_turn)):
-            if not isinstance(flag, bool):
-                raise TypeError(f"{name}={flag!r} must be a bool")
+        flag("keep_nature", keep_nature)
+        flag("retake_turn", retake_turn)
         if retake_turn and not keep_nature:
             raise ValueError("retake_turn=True needs keep_nature=True (frozen, nature never moves)")
         twin = copy.copy(self)
@@ -276,17 +276,6 @@ class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):
             f"NSGymEnv({process.family!r}, nature={process.nature!r}, "
             f"notification={process.level.value!r})"
         )
-
-
-def check_flag(name: str, value: Any) -> bool:
-    """``value`` if it is a bool.
-
-    Raises:
-        TypeError: It is not (``"no"`` or ``1`` would silently count as true or false).
-    """
-    if not isinstance(value, bool):
-        raise TypeError(f"{name}={value!r} must be a bool")
-    return value
 
 
 def reset_seeded(

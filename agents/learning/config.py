@@ -18,6 +18,8 @@ from typing import Any
 
 from ns_pz.agents.learning.puct import PUCTSettings
 
+from ns_pz.checks import flag
+
 #: The paper's DQN hidden widths per family (NS-Gym "layers" count ``Linear`` layers).
 DDQN_HIDDEN = {
     "FrozenLakeFamily": (64,),
@@ -226,8 +228,7 @@ class AlphaZeroArgs:
         _real("temperature_decay", self.temperature_decay, 0.0, 1.0)
         _real("learning_rate", self.learning_rate, 0.0)
         _real("weight_decay", self.weight_decay, 0.0)
-        if not isinstance(self.normalise_q, bool):  # "false" would count as True
-            raise TypeError(f"normalise_q={self.normalise_q!r} must be a bool")
+        flag("normalise_q", self.normalise_q)  # "false" would count as True
 
     def puct_settings(self) -> PUCTSettings:
         """The search settings of self-play (call on the result of :meth:`for_family`).

@@ -23,6 +23,7 @@ from ns_pz.agents.search.compiled import BACKENDS
 from ns_pz.agents.search.mcts import check_uct_params, uct_tree, uniform_index
 from ns_pz.agents.search.types import SearchAgent, SearchResult
 
+from ns_pz.checks import flag
 from ns_pz.views import NSGymEnv
 
 QFunction = Callable[[Any], np.ndarray]
@@ -181,8 +182,7 @@ def check_pamcts(
     """
     alpha = check_alpha(alpha)
     check_uct_params(iterations, depth, c, gamma)
-    if not isinstance(normalise, bool):
-        raise TypeError(f"normalise={normalise!r} must be a bool")
+    flag("normalise", normalise)
     if backend not in BACKENDS:
         raise ValueError(f"backend={backend!r} is not a backend; allowed: {list(BACKENDS)}")
     return alpha

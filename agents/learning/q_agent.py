@@ -12,7 +12,7 @@ from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import NumpyMLP, features
 from ns_pz.agents.learning.trained import ddqn_needed, obtain, torch_module
 
-from ns_pz.monitor.monitors import count
+from ns_pz.checks import count
 from ns_pz.views import NSGymEnv
 
 

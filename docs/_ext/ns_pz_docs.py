@@ -38,7 +38,7 @@ LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     (
         "θ: parameter sets",
         "Immutable, validated parameter values and their errors (and leaf utilities).",
-        ("ns_pz.params", "ns_pz.errors", "ns_pz.files", "ns_pz.workers"),
+        ("ns_pz.params", "ns_pz.errors", "ns_pz.checks", "ns_pz.files", "ns_pz.workers"),
     ),
     (
         "Nature",

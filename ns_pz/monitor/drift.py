@@ -58,14 +58,13 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from ns_pz.checks import count, positive_number
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import (
     Detector,
     Flags,
     Sizes,
-    count,
     has_transition,
-    positive_number,
     silence,
     watched_names,
 )

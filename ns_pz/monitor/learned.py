@@ -7,13 +7,13 @@ from typing import Any
 
 import numpy as np
 
+from ns_pz.checks import flag
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import Flags, Monitor, Sizes, as_flags
 from ns_pz.observations import monitor_flags_space, monitor_observation_space
 from ns_pz.params import Params
 from ns_pz.seat_policies import (
     call_policy,
-    check_deterministic,
     check_policy,
     check_policy_spaces,
 )
@@ -38,7 +38,7 @@ class PolicyMonitor(Monitor):
     def __init__(self, policy: Any, *, deterministic: bool = True) -> None:
         check_policy(policy, "monitor", "PolicyMonitor(policy)")
         self.policy = policy
-        self.deterministic = check_deterministic(deterministic)
+        self.deterministic = flag("deterministic", deterministic)
         self._count = 0
 
     def bind(self, family: EnvFamily, theta0: Params) -> None:

@@ -13,7 +13,6 @@ The game then masks the notification to its level (see
 
 from __future__ import annotations
 
-import math
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
@@ -143,30 +142,6 @@ def watched_names(params: Any) -> tuple[str, ...] | None:
     if not names:
         raise ValueError("params=[] watches nothing; give at least one name, or None for all")
     return names
-
-
-def count(name: str, value: Any, low: int = 1) -> int:
-    """``value`` as an int if it is an integer (NumPy's too, not a bool) >= ``low``.
-
-    Raises:
-        ValueError: Anything else.
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-        raise ValueError(f"{name}={value!r} must be an int >= {low}")
-    return int(value)
-
-
-def positive_number(name: str, value: Any) -> float:
-    """``value`` as a float if it is a finite real number > 0 (a bool is refused).
-
-    Raises:
-        ValueError: Anything else.
-    """
-    if isinstance(value, bool) or not (
-        isinstance(value, (int, float, np.integer, np.floating)) and 0.0 < value < math.inf
-    ):
-        raise ValueError(f"{name}={value!r} must be a finite number > 0")
-    return float(value)
 
 
 class Detector(Monitor):

@@ -44,6 +44,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from gymnasium import spaces
 
+from ns_pz.checks import flag
 from ns_pz.family import EnvFamily
 from ns_pz.nature.constraints import NatureConstraints, budget_fractions_left
 from ns_pz.params import SIMPLEX, Params
@@ -100,8 +101,7 @@ class NatureInterface:
     ) -> None:
         if action not in NATURE_ACTIONS:
             raise ValueError(f"nature_action={action!r}; allowed: {NATURE_ACTIONS}")
-        if not isinstance(observes_state, bool):
-            raise TypeError(f"nature_observes_state={observes_state!r} must be a bool")
+        flag("nature_observes_state", observes_state)
         check_default_step(default_step)
         params_cls = family.params_cls
         self.action_mode = action

@@ -13,12 +13,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ns_pz.checks import flag
 from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS, NatureInterface, check_default_step
 from ns_pz.nature.policies import Nature, Proposal
 from ns_pz.params import Params
 from ns_pz.seat_policies import (
     call_policy,
-    check_deterministic,
     check_policy,
     check_policy_spaces,
 )
@@ -61,13 +61,11 @@ class PolicyNature(Nature):
         check_policy(policy, "nature", "PolicyNature(policy)")
         if action not in NATURE_ACTIONS:
             raise ValueError(f"action={action!r}; allowed: {NATURE_ACTIONS}")
-        if not isinstance(observes_state, bool):
-            raise TypeError(f"observes_state={observes_state!r} must be a bool")
         self.policy = policy
         self.action = action
-        self.observes_state = observes_state
+        self.observes_state = flag("observes_state", observes_state)
         self.default_step = check_default_step(default_step)
-        self.deterministic = check_deterministic(deterministic)
+        self.deterministic = flag("deterministic", deterministic)
         # The interfaces (one per environment it drives) its spaces were checked against.
         self._checked: weakref.WeakSet[NatureInterface] = weakref.WeakSet()
 
