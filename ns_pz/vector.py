@@ -247,36 +247,74 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
     ) -> tuple[dict[str, Any], dict[str, Any]]:
-        """Reset every sub-env; ``seed=s`` seeds sub-env ``i`` with ``s + i``.
+        """Reset every sub-env, or those ``options["reset_mask"]`` selects.
+
+        ``seed=s`` seeds sub-env ``i`` with ``s + i``, as ``SyncVectorEnv`` does.
 
         Args:
             seed: ``None`` (keep the generators; fresh entropy on the first reset), an int, or
                 a list of ``num_envs`` ints or ``None``.
-            options: ``{"params": θ_0}`` for every sub-env, as the single view.
+            options: ``{"params": θ_0}`` for the sub-envs reset, as the single view, and
+                Gymnasium's ``{"reset_mask": mask}``: a bool array of shape ``(num_envs,)``
+                selecting the sub-envs to reset (the others go on with their episodes; seeds
+                apply to the selected ones only). A refused reset changes nothing.
 
         Raises:
             TypeError / ValueError: A bad seed, a seed list of the wrong length, bad options.
         """
-        n = self.num_envs
-        if seed is None:
-            seeds: list[int | None] = [None] * n
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            check_seed(seed)
-            seeds = [int(seed) + i for i in range(n)]
-        else:
-            seeds = list(seed)  # type: ignore[arg-type]  # a bool is refused by check_seed
-            if len(seeds) != n:
-                raise ValueError(f"seed has {len(seeds)} entries; num_envs={n} needs {n}")
-            for one in seeds:
-                check_seed(one)
+        seeds = self._seeds(seed)
+        rows = np.ones(self.num_envs, np.bool_)
+        if isinstance(options, Mapping) and "reset_mask" in options:
+            rows = self._reset_mask(options["reset_mask"])
+            options = {key: value for key, value in options.items() if key != "reset_mask"}
+        # Checked before any generator is seeded or drawn from: a refused reset changes nothing.
+        start = self._processes[0].prepare_episode(options)
+        if isinstance(seed, (int, np.integer)):  # the vector env's own np_random, as Gymnasium's
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(int(seed))
         for i, one in enumerate(seeds):
-            if one is not None or self._rngs[i] is None:
+            if rows[i] and (one is not None or self._rngs[i] is None):
                 self._seed(i, one)
-        everyone = np.ones(n, np.bool_)
-        self._reset_rows(everyone, options)
-        self._autoreset[:] = False
+        self._reset_rows(rows, options, theta0=start.theta0)
+        self._autoreset[rows] = False
         self._started = True
         return self._observation(), {}
+
+    def _seeds(self, seed: Any) -> list[int | None]:
+        """One seed (or ``None``) per sub-env from ``reset``'s ``seed``."""
+        n = self.num_envs
+        if seed is None:
+            return [None] * n
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            check_seed(seed)
+            return [int(seed) + i for i in range(n)]
+        if not isinstance(seed, (Sequence, np.ndarray)) or isinstance(seed, (str, bytes)):
+            raise TypeError(
+                f"seed={seed!r} must be None, a non-negative int or a list of {n} such ints or None"
+            )
+        seeds = list(seed)
+        if len(seeds) != n:
+            raise ValueError(f"seed has {len(seeds)} entries; num_envs={n} needs {n}")
+        for one in seeds:
+            check_seed(one)
+        return seeds
+
+    def _reset_mask(self, mask: Any) -> np.ndarray:
+        """The sub-envs ``options["reset_mask"]`` selects (checked as ``SyncVectorEnv`` does)."""
+        n = self.num_envs
+        if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_:
+            raise TypeError(f"options['reset_mask']={mask!r} must be a numpy array of dtype bool")
+        if mask.shape != (n,):
+            raise ValueError(
+                f"options['reset_mask'] has shape {mask.shape}; num_envs={n} needs ({n},)"
+            )
+        if not mask.any():
+            raise ValueError("options['reset_mask'] selects no sub-env; select at least one")
+        if not self._started and not mask.all():
+            raise ValueError(
+                "options['reset_mask'] must select every sub-env at the first reset (the others "
+                "would have no episode to go on with)"
+            )
+        return mask.copy()
 
     def step(
         self, actions: Any
@@ -504,12 +542,18 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             self._theta[i] = process.theta.flat_values()
 
     def _reset_rows(
-        self, rows: np.ndarray, options: Mapping[str, Any] | None, act: bool = True
+        self,
+        rows: np.ndarray,
+        options: Mapping[str, Any] | None,
+        act: bool = True,
+        theta0: Params | None = None,
     ) -> None:
         """Start new episodes in the selected sub-envs (a bool mask).
 
-        ``act=False`` leaves nature's first turn and the rows' notifications to the caller (array
-        engine only): the transition that follows in :meth:`step` writes every row of both.
+        ``options`` were checked by :meth:`reset`, which passes the θ_0 they start as
+        ``theta0`` (``None``: the env's own). ``act=False`` leaves nature's first turn and the
+        rows' notifications to the caller (array engine only): the transition that follows in
+        :meth:`step` writes every row of both.
         """
         kernel = self.kernel
         starts = None
@@ -538,16 +582,13 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             initial = self.family.initial_state
             for i in indices:
                 self._states[i] = kernel.pack(initial(self._rngs[i]))  # type: ignore[arg-type]
-        theta0 = self._theta0_row
-        if options is not None:
-            process = self._processes[0]
-            process.reset(options)  # checks the options (and warns of unknown keys) as a view
-            if options.get("params") is not None:
-                theta0 = np.array(process.theta0.flat_values(), np.float64)
+        row = self._theta0_row
+        if theta0 is not None:
+            row = np.array(theta0.flat_values(), np.float64)
         # Index arrays: a few rows restart per step, and fancy indexing by them is cheaper
         # than a boolean mask over every sub-env.
-        self._theta[indices] = theta0
-        self._last_theta[indices] = theta0
+        self._theta[indices] = row
+        self._last_theta[indices] = row
         self._t[indices] = 0
         assert self._schedule is not None
         self._schedule.restart(indices, self.num_envs)

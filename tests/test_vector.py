@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium import spaces
 from ns_pz.envs.registry import make_gym, make_vec, registered_envs
 
-from ns_pz.errors import ResetNeeded
+from ns_pz.errors import ParamOutOfRange, ResetNeeded
 from ns_pz.monitor.monitors import Monitor
 from ns_pz.nature import (
     ContinuousScheduler,
@@ -405,7 +406,92 @@ def test_the_array_engine_checks_reset_options_as_the_view_does() -> None:
     """Unknown keys warn (they were ignored silently), a list is refused."""
     vec = make_vec("ns_pz/CartPole-v0", 2)
     vec.reset(seed=0)
-    with pytest.warns(UserWarning, match="reset_mask"):
-        vec.reset(options={"reset_mask": np.array([True, False])})
+    with pytest.warns(UserWarning, match="'speed'"):
+        vec.reset(options={"speed": 2})
     with pytest.raises(TypeError, match="options=\\[1\\]"):
         vec.reset(options=[1])
+
+
+@pytest.mark.parametrize(("env_id", "nature", "engine"), CASES[:3])
+def test_a_refused_reset_changes_nothing(env_id: str, nature: Any, engine: str) -> None:
+    """Bad options are refused before any generator is reseeded or state drawn (they were not)."""
+    vec, twin = (make_vec(env_id, 3, nature=nature, notification="detailed") for _ in "ab")
+    assert vec.engine == engine
+    actions = np.zeros(3, np.int64)
+    for env in (vec, twin):
+        env.reset(seed=1)
+        for _ in range(2):
+            env.step(actions)
+    first = vec.family.params_cls.names()[0]
+    with pytest.raises(ParamOutOfRange):
+        vec.reset(seed=5, options={"params": {first: -1.0}})
+    for _ in range(30):
+        _same_batches(vec.step(actions)[0], twin.step(actions)[0])
+
+
+@pytest.mark.parametrize(("env_id", "nature", "engine"), CASES[:4])
+def test_reset_mask_resets_the_selected_sub_envs_as_sync_vector_env_does(
+    env_id: str, nature: Any, engine: str
+) -> None:
+    """Gymnasium's ``options={"reset_mask": mask}`` (it was ignored with a warning)."""
+    n = 3
+    vec = make_vec(env_id, n, nature=nature, notification="detailed", max_episode_steps=25)
+    assert vec.engine == engine
+    sync = gym.vector.SyncVectorEnv(
+        [
+            lambda: make_gym(env_id, nature=nature, notification="detailed", max_episode_steps=25)
+            for _ in range(n)
+        ]
+    )
+    rng = np.random.default_rng(3)
+    _same_batches(vec.reset(seed=7)[0], sync.reset(seed=7)[0])
+    for step in range(60):
+        if step % 9 == 4:
+            mask = rng.random(n) < 0.5
+            mask[step % n] = True
+            seed = [int(s) for s in rng.integers(0, 99, n)] if step % 2 else None
+            options = {"reset_mask": mask, "params": {}}
+            obs, _ = vec.reset(seed=seed, options=options)
+            assert options["reset_mask"] is mask  # the caller's dict is left as it was
+            expected, _ = sync.reset(seed=seed, options=dict(options))
+        else:
+            actions = _actions(vec.single_action_space, rng, n)
+            obs, *rest = vec.step(actions)
+            expected, *sync_rest = sync.step(actions)
+            for mine, theirs in zip(rest[:3], sync_rest[:3], strict=True):
+                assert np.array_equal(mine, theirs)
+        _same_batches(obs, expected)
+
+
+def _same_batches(batch: dict[str, np.ndarray], expected: dict[str, np.ndarray]) -> None:
+    assert batch.keys() == expected.keys()
+    for key, values in batch.items():
+        assert np.array_equal(values, expected[key]), key
+
+
+def test_bad_seeds_and_reset_masks_are_refused_by_name() -> None:
+    vec = make_vec("ns_pz/CartPole-v0", 2)
+    with pytest.raises(ValueError, match="every sub-env at the first reset"):
+        vec.reset(options={"reset_mask": np.array([True, False])})
+    for seed in (3.0, True, "ab"):
+        with pytest.raises(TypeError, match=f"seed={seed!r} must be None"):
+            vec.reset(seed=seed)  # type: ignore[arg-type]
+    vec.reset(seed=0)
+    for mask, error, match in [
+        ([True, False], TypeError, "numpy array of dtype bool"),
+        (np.array([1, 0]), TypeError, "numpy array of dtype bool"),
+        (np.array([True]), ValueError, "shape \\(1,\\); num_envs=2 needs \\(2,\\)"),
+        (np.array([False, False]), ValueError, "selects no sub-env"),
+    ]:
+        with pytest.raises(error, match=match):
+            vec.reset(options={"reset_mask": mask})
+
+
+def test_the_vector_envs_own_generator_follows_the_seed() -> None:
+    draws = []
+    for _ in range(2):
+        vec = make_vec("ns_pz/CartPole-v0", 2)
+        vec.reset(seed=4)
+        assert vec.np_random_seed == 4
+        draws.append(vec.np_random.random())
+    assert draws[0] == draws[1]
