@@ -188,6 +188,9 @@ class NSProcess:
         """The notification of this step (flags, sizes), masked to the level; zeros until the
         monitor's turn and after the episode ends."""
         self._told_by_monitor = True  # False once a notification comes from outside
+        self._start_memory: Any = None
+        """A planning copy's detector memory at the copy, which its own episodes start from
+        (``None``: the monitor's :meth:`~ns_pz.monitor.Monitor.initial_memory`)."""
         self.spent: dict[str, float] = {}
         """Change size charged to nature's budget per parameter this episode (nothing is
         charged when no budget applies)."""
@@ -246,10 +249,11 @@ class NSProcess:
             if options.get("params") is not None:
                 theta0 = _check_params(self.family, options["params"])
         monitor = self.monitor
-        same = theta0 is self.base_theta0 or theta0 == self.base_theta0
-        return EpisodeStart(
-            theta0, monitor.initial_memory() if same else monitor.episode_memory(theta0)
-        )
+        if not (theta0 is self.base_theta0 or theta0 == self.base_theta0):
+            return EpisodeStart(theta0, monitor.episode_memory(theta0))
+        if self._start_memory is not None:
+            return EpisodeStart(theta0, copy.deepcopy(self._start_memory))
+        return EpisodeStart(theta0, monitor.initial_memory())
 
     def reset(
         self, options: Mapping[str, Any] | None = None, *, prepared: EpisodeStart | None = None
@@ -686,7 +690,7 @@ class NSProcess:
         fresh planning generator. Its own ``reset`` starts new episodes under the frozen θ.
         """
         if not self.started:
-            raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
+            raise ResetNeeded(_COPY_BEFORE_RESET)
         twin = copy.copy(self)
         theta = self.planning_theta() if theta is None else theta
         twin.base_theta0 = twin.theta0 = twin.theta = twin.last_theta = theta
@@ -701,7 +705,7 @@ class NSProcess:
         twin.nature_rng = twin.env_rng
         twin._planning_seeds = planning_seq
         twin._seat_seeds = seat_seq
-        twin.monitor_memory = self.monitor.initial_memory()
+        twin._take_monitor_memory(self)
         twin.last_change = None
         twin._step_sizes = twin._last_sizes = None
         twin.change_times = []
@@ -728,7 +732,7 @@ class NSProcess:
         using it never touches this process's streams, and two copies differ.
         """
         if not self.started:
-            raise ResetNeeded("get_planning_env() called before reset(); call reset() first")
+            raise ResetNeeded(_COPY_BEFORE_RESET)
         twin = copy.copy(self)
         theta = self.planning_theta() if theta is None else theta
         twin.base_theta0 = twin.theta0 = twin.theta = twin.last_theta = theta
@@ -740,7 +744,7 @@ class NSProcess:
         twin.monitor_rng = np.random.Generator(np.random.PCG64(monitor_seq))
         twin._planning_seeds = planning_seq
         twin._seat_seeds = seat_seq
-        twin.monitor_memory = self.monitor.initial_memory()
+        twin._take_monitor_memory(self)
         twin.last_change = None
         twin._step_sizes = twin._last_sizes = None
         twin.change_times = []
@@ -749,6 +753,20 @@ class NSProcess:
         if retake_turn and not self.done:
             twin.turn = NATURE
         return twin._joined()
+
+    def _take_monitor_memory(self, original: NSProcess) -> None:
+        """A copy's monitor goes on from what ``original``'s knows now.
+
+        A detector's memory holds its reference model, bound to the original θ_0 and moved by
+        its alarms to what it believes (the copy's θ when the copy is at the planning θ): a
+        fresh memory would compare the copy's world with the original θ_0 and report changes
+        that never happen there. The copy's own episodes (its ``reset``, from the copy's θ)
+        start from this memory too. A monitor that reads the ground truth keeps nothing that
+        depends on θ_0; the copy's episodes start its memory afresh.
+        """
+        self.monitor_memory = copy.deepcopy(original.monitor_memory)
+        if not self.monitor.reads_ground_truth:
+            self._start_memory = copy.deepcopy(original.monitor_memory)
 
     def _joined(self) -> NSProcess:
         """This copy, brought to the agent's turn (where a planner or a view takes over)."""
@@ -774,6 +792,10 @@ _NONE = NotificationLevel.NONE
 _DETAILED = NotificationLevel.DETAILED
 """The levels compared at every step (a global is read faster than an Enum's attribute)."""
 _STATIC = StaticNature()
+_COPY_BEFORE_RESET = (
+    "get_planning_env() or branch() called before reset(); call reset() first (a planning copy "
+    "starts from the current state of an episode)"
+)
 _UNASKED = object()
 """No answer of a configured policy is pending in this turn (``None`` is a valid proposal)."""
 _UNCONSTRAINED = NatureConstraints()

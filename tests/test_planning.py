@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import math
 import re
+from typing import Any
 
+import gymnasium
 import numpy as np
 import pytest
 from ns_pz.envs.frozen_lake import FrozenLakeFamily, FrozenLakeParams
@@ -143,3 +145,78 @@ def test_outcome_table_model_refuses_garbage_too():
         model.step(4)
     model.set_state(np.int32(3))
     assert model.step(np.int64(0))[0] in range(16)
+
+
+def _flags_in(env: Any, steps: int, rng: np.random.Generator, resets: bool = True) -> int:
+    """Steps whose observation flags a change, under random actions (resetting at the ends)."""
+    flagged = 0
+    for _ in range(steps):
+        obs, _, terminated, truncated, _ = env.step(int(rng.integers(env.action_space.n)))
+        flagged += int(obs["env_change"].any())
+        if terminated or truncated:
+            if not resets:
+                break
+            env.reset()
+    return flagged
+
+
+@pytest.mark.parametrize(
+    ("env_id", "changes", "params", "detector"),
+    [
+        (
+            "ns_pz/FrozenLake-v0",
+            {"slip": (0.2, 0.4, 0.4)},
+            {"slip": (1.0, 0.0, 0.0)},
+            lambda: ns_pz.monitor.TabularCusumMonitor(threshold=10.0),
+        ),
+        (
+            "ns_pz/CartPole-v0",
+            {"length": 2.0, "force_mag": 20.0},
+            {},
+            lambda: ns_pz.monitor.PredictionErrorMonitor(),
+        ),
+    ],
+)
+def test_a_planning_copy_goes_on_with_what_its_detector_knows(
+    env_id: str, changes: dict, params: dict, detector: Any
+) -> None:
+    """A copy's detector goes on from what the agent's detector knows.
+
+    In a stationary copy made after a detection, it reports nothing (it compared the copy's
+    world with the original θ_0 and flagged 12% of FrozenLake's steps); the copy's own episodes
+    (its resets) start from what the detector knew.
+    """
+    from ns_pz.nature import DiscreteScheduler, ScriptedNature, StepWiseUpdate
+    from ns_pz.nature.distribution_updates import DistributionStepWiseUpdate
+
+    rules = {
+        name: (DistributionStepWiseUpdate if isinstance(value, tuple) else StepWiseUpdate)(
+            DiscreteScheduler([1]), [value]
+        )
+        for name, value in changes.items()
+    }
+    env = gymnasium.make(
+        env_id,
+        params=params,
+        nature=ScriptedNature(rules),
+        monitor=detector(),
+        notification="detailed",
+        max_episode_steps=1000,
+    ).unwrapped
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        obs, *_ = env.step(int(rng.integers(env.action_space.n)))
+        if obs["env_change"].any():
+            break
+    else:
+        pytest.fail("the detector did not detect the change")
+    copy = env.get_planning_env()
+    believed = env.process.planning_theta()
+    assert copy.process.theta == believed != env.process.theta0
+    assert copy.process.planning_theta() == believed  # it knows what the detector knew
+    assert _flags_in(copy, 600, rng) == 0
+    assert env.process.planning_theta() == believed  # the copy's detector is its own
+    kept = env.branch(keep_nature=True)  # nature's one change is behind: no change this episode
+    assert _flags_in(kept, 300, rng, resets=False) == 0
+    assert kept.process.change_times == []

@@ -143,7 +143,9 @@ def test_using_a_planning_env_leaves_the_real_env_streams_alone():
 def test_bad_calls_raise_before_anything_changes():
     """Planning, stepping or changing θ without a running episode raise ResetNeeded."""
     env = ns_pz.make_gym("ns_pz/FrozenLake-v0")
-    with pytest.raises(ResetNeeded, match="get_planning_env\\(\\) called before reset"):
+    with pytest.raises(
+        ResetNeeded, match="get_planning_env\\(\\) or branch\\(\\) called before reset"
+    ):
         env.get_planning_env()
     with pytest.raises(ResetNeeded, match="before reset"):
         env.planning_model()
