@@ -448,3 +448,35 @@ def test_robust_guarantee_holds_for_every_nature_schedule_of_a_small_instance():
     thetas = [BridgeParams(slip=v) for v in off_line + off_line[-1:] * 2]
     achieved = policy_values(family, thetas, robust.policy)[0]
     assert (achieved < robust.values[0] - 0.04).any()
+
+
+def test_theta_trajectory_starts_from_the_episodes_own_theta0() -> None:
+    """``reset(options={"params": ...})``: the trajectory (and so the oracle) starts there.
+
+    It started from the env's default θ_0, so the "exact optimum" was another episode's.
+    """
+    from ns_pz.agents.exact.regret_reference import recorded_thetas
+
+    from ns_pz.nature import DiscreteScheduler, TrajectoryNature
+    from ns_pz.nature.distribution_updates import DistributionStepWiseUpdate
+
+    nature = ScriptedNature(
+        {"slip": DistributionStepWiseUpdate(DiscreteScheduler({5}), [equal_split(0.5, 3)])}
+    )
+    env = gymnasium.make("ns_pz/FrozenLake-v0", nature=nature, max_episode_steps=30).unwrapped
+    env.reset(seed=0, options={"params": {"slip": equal_split(0.95, 3)}})
+    planned = theta_trajectory(env, 0, np.int64(30))
+    for _ in range(30):
+        *_, terminated, truncated, _ = env.step(0)
+        if terminated or truncated:
+            break
+    assert list(planned) == recorded_thetas(env.process, 30)
+    assert planned[0].slip[0] == 0.95 and planned[5].slip[0] == 0.5
+    truth = env.ground_truth()
+    replayed = gymnasium.make(
+        "ns_pz/FrozenLake-v0",
+        nature=TrajectoryNature(truth.change_times, truth.change_values),
+        params={"slip": equal_split(0.95, 3)},
+        max_episode_steps=30,
+    )
+    assert theta_trajectory(replayed, 0) == planned  # a replayed trajectory is open-loop

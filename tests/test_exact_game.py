@@ -411,8 +411,41 @@ def test_exploitability_of_the_equilibrium_is_zero_and_of_planners_positive():
         result = exploitability(family, policy, grid, horizon, game=game)
         assert result.exploitability >= -1e-9
         assert result.game_value == game.value
-    with pytest.raises(ValueError, match="game was solved for horizon 12"):
+    with pytest.raises(ValueError, match="horizon 5 here, 12 in the game"):
         exploitability(family, game.agent[:5], grid, 5, game=game)
+
+
+def test_a_game_solved_for_another_game_is_refused_where_it_is_reused():
+    """Same sizes, another discount, grid or family: refused (they gave wrong values silently)."""
+    family = FrozenLakeFamily()
+    constraints = NatureConstraints(lipschitz=0.1, budget=0.3)
+    grid = slip_line_grid(theta(0.9), 0.1, constraints)
+    horizon = 4
+    game = solve_game(family, grid, horizon, gamma=0.5)
+    policy = stale_policy(family, theta(0.9), horizon)
+    free = slip_line_grid(theta(0.9), 0.1, NatureConstraints(lipschitz=0.1))
+    other_family = FrozenLakeFamily(reward_schedule=(2.0, 0.0, 0.0))
+    for kwargs, match in [
+        ({"gamma": 1.0}, "gamma 1.0 here, 0.5 in the game"),
+        ({"gamma": 0.5, "grid": free}, "another grid"),
+        ({"gamma": 0.5, "env": other_family}, "reward_schedule=\\(2.0, 0.0, 0.0\\)\\) here"),
+    ]:
+        call = {"env": family, "grid": grid, "gamma": 0.5, **kwargs}
+        with pytest.raises(ValueError, match=match):
+            exploitability(
+                call["env"], policy, call["grid"], horizon, gamma=call["gamma"], game=game
+            )
+        with pytest.raises(ValueError, match=match):
+            blind_value_bounds(
+                call["env"],
+                call["grid"],
+                horizon,
+                {"stale": policy},
+                gamma=call["gamma"],
+                game=game,
+            )
+    reused = exploitability(family, policy, grid, horizon, gamma=0.5, game=game)
+    assert reused.game_value == game.value
 
 
 def test_snapshot_policy_on_grid_plays_as_snapshot_replanning():

@@ -56,6 +56,9 @@ class GameSolution:
         value: The game's value at reset (start states, θ_{-1}, full budget).
         linear_programs: Stages that needed an LP (the others had a pure saddle point).
         stages: All stages solved.
+        grid: The grid it was solved on.
+        gamma: The discount it was solved with.
+        family: ``repr`` of the family it was solved for.
     """
 
     values: np.ndarray
@@ -64,6 +67,45 @@ class GameSolution:
     value: float
     linear_programs: int
     stages: int
+    grid: NatureGrid
+    gamma: float
+    family: str
+
+    def check_reusable(self, env: Any, grid: NatureGrid, horizon: int, gamma: float) -> None:
+        """Refuse to stand in for the game of another family, grid, horizon or discount.
+
+        Raises:
+            ValueError: One of them differs from what this solution was solved for (named).
+        """
+        family = repr(family_of(env))
+        differences = [
+            f"{name} {mine} here, {theirs} in the game"
+            for name, mine, theirs in (
+                ("family", family, self.family),
+                ("horizon", horizon, self.agent.shape[0]),
+                ("gamma", gamma, self.gamma),
+            )
+            if mine != theirs
+        ]
+        if not same_grid(grid, self.grid):
+            differences.append("another grid (points, moves, costs or budget)")
+        if differences:
+            raise ValueError(
+                "game= was solved for another game: " + "; ".join(differences) + " (solve it "
+                "again with solve_game for this one, or pass game=None)"
+            )
+
+
+def same_grid(one: NatureGrid, other: NatureGrid) -> bool:
+    """Whether two grids give nature the same action set (points, moves, costs and budget)."""
+    return one is other or (
+        one.thetas == other.thetas
+        and one.start == other.start
+        and np.array_equal(one.allowed, other.allowed)
+        and np.array_equal(one.costs, other.costs)
+        and one.budget_levels == other.budget_levels
+        and one.budget_unit == other.budget_unit
+    )
 
 
 def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) -> GameSolution:
@@ -106,4 +148,7 @@ def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) 
         value=start_value(family_of(env), values, grid),
         linear_programs=linear_programs,
         stages=horizon * num_states * m * levels,
+        grid=grid,
+        gamma=gamma,
+        family=repr(family_of(env)),
     )

@@ -84,12 +84,13 @@ def blind_value_bounds(
         candidates: Blind policies by name, each ``[H, S]`` actions or ``[H, S, A]``
             probabilities (e.g. the stale and the robust policies).
         gamma: Discount in ``[0, 1]``.
-        game: The game's solution on the same grid and horizon, to reuse.
+        game: The game's solution for the same family, grid, horizon and discount, to reuse.
         rounds: Oracle / open-loop best-response alternations after the first schedules.
         max_nodes: Beam width of the open-loop searches.
 
     Raises:
-        ValueError: No candidate, a candidate that reads θ (wrong shape), or ``rounds < 0``.
+        ValueError: No candidate, a candidate that reads θ (wrong shape), ``rounds < 0``, or a
+            ``game`` solved for another family, grid, horizon or discount.
     """
     horizon, gamma = check_game(horizon, gamma)
     if not candidates:
@@ -106,6 +107,8 @@ def blind_value_bounds(
             )
     if game is None:
         game = solve_game(env, grid, horizon, gamma=gamma)
+    else:
+        game.check_reusable(env, grid, horizon, gamma)
     candidates = {
         **candidates,
         "equilibrium averaged over θ": averaged_equilibrium(env, grid, game),

@@ -14,11 +14,13 @@ from __future__ import annotations
 import copy
 from typing import Any
 
-from ns_pz.nature.policies import RandomNature, ScriptedNature, StaticNature
+import numpy as np
+
+from ns_pz.nature.policies import RandomNature, ScriptedNature, StaticNature, TrajectoryNature
 from ns_pz.params import Params
 from ns_pz.process import NATURE, NSProcess
 
-OPEN_LOOP_NATURES = (StaticNature, ScriptedNature, RandomNature)
+OPEN_LOOP_NATURES = (StaticNature, ScriptedNature, RandomNature, TrajectoryNature)
 """Natures whose θ trajectory is known not to depend on the state or the agent."""
 
 
@@ -26,6 +28,9 @@ def theta_trajectory(
     env: Any, seed: int, horizon: int | None = None, *, assume_open_loop: bool = False
 ) -> tuple[Params, ...]:
     """θ_0 .. θ_{H-1} of the episode ``env.reset(seed=seed)`` would start.
+
+    Nature starts from the running episode's θ_0 (one set by ``reset(options={"params": ...})``
+    included; before any reset, the env's own).
 
     ``θ_t`` is the θ in force during transition ``t``, after nature's move at step ``t``. Hand
     changes (``env.set_params``) are not part of the schedule and are not included. Beyond the
@@ -60,7 +65,9 @@ def theta_trajectory(
     horizon = check_horizon(horizon, process.max_episode_steps)
     replay = copy.copy(process)  # seed() and reset() rebind every per-episode attribute
     replay.seed(seed)
-    replay.reset()
+    # From the running episode's θ_0, which reset options may have set (nature starts there).
+    theta0 = process.theta0
+    replay.reset(None if theta0 == process.base_theta0 else {"params": theta0})
     thetas = []
     for t in range(horizon):
         replay.t, replay.turn, replay.done = t, NATURE, False  # nature's turns only, no transitions
@@ -95,11 +102,11 @@ def check_horizon(horizon: object, default: int | None = None) -> int:
                 "horizon=None but the environment has no time limit; pass horizon= explicitly"
             )
         horizon = default
-    if isinstance(horizon, bool) or not isinstance(horizon, int):
+    if isinstance(horizon, bool) or not isinstance(horizon, (int, np.integer)):
         raise TypeError(f"horizon={horizon!r} must be an int >= 1")
     if horizon < 1:
         raise ValueError(f"horizon={horizon!r} must be >= 1")
-    return horizon
+    return int(horizon)
 
 
 def _process_of(env: Any) -> NSProcess:
