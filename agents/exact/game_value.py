@@ -87,7 +87,7 @@ class GameSolution:
             )
             if mine != theirs
         ]
-        if not same_grid(grid, self.grid):
+        if not _same_grid(grid, self.grid):
             differences.append("another grid (points, moves, costs or budget)")
         if differences:
             raise ValueError(
@@ -96,7 +96,7 @@ class GameSolution:
             )
 
 
-def same_grid(one: NatureGrid, other: NatureGrid) -> bool:
+def _same_grid(one: NatureGrid, other: NatureGrid) -> bool:
     """Whether two grids give nature the same action set (points, moves, costs and budget)."""
     return one is other or (
         one.thetas == other.thetas
