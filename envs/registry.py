@@ -53,6 +53,7 @@ _GAME_KWARGS = _NS_KWARGS | {
     "nature_action",
     "nature_observes_state",
     "monitor_action",
+    "monitor_reward",
 }
 
 

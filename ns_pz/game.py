@@ -38,6 +38,7 @@ from ns_pz.errors import ResetNeeded
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import Monitor
 from ns_pz.monitor.notification import NotificationLevel
+from ns_pz.monitor.scoring import MonitorRewardFn, monitor_reward_of
 from ns_pz.nature.constraints import NatureConstraints
 from ns_pz.nature.policies import Nature
 from ns_pz.observations import (
@@ -81,12 +82,18 @@ class NSGame(AECEnv):
         nature_action: ``"delta"`` (Δθ) or ``"normalized"`` (``Box(-1, 1)`` per allowance).
         nature_observes_state: Add the agent's state and last action to nature's observation.
         monitor_action: ``"dict"`` (flags and sizes) or ``"flags"`` (``MultiDiscrete``).
+        monitor_reward: What the monitor earns at its turn, for a learning monitor: ``None``
+            (nothing, the default), ``"detection"`` (:class:`~ns_pz.monitor.DetectionReward`)
+            or a function ``fn(process, flags) -> float`` of the flags just sent (as in
+            :func:`~ns_pz.seats.single_agent`). It is the monitor's reward of that step and
+            what ``last()`` gives the monitor at its next turn.
         render_mode: ``None``, or one of the family's modes (``"human"``, ``"rgb_array"``, and
             ``"ansi"`` for grid worlds): :meth:`render` draws the environment's state under the
             θ in force; ``"human"`` redraws after every reset and transition.
 
     Raises:
-        ValueError: ``render_mode`` is not one of the family's modes.
+        ValueError: ``render_mode`` is not one of the family's modes, or ``monitor_reward`` is
+            none of the above.
     """
 
     metadata: dict[str, Any] = {
@@ -110,6 +117,7 @@ class NSGame(AECEnv):
         nature_action: str = "delta",
         nature_observes_state: bool = False,
         monitor_action: str = "dict",
+        monitor_reward: MonitorRewardFn | str | None = None,
         render_mode: str | None = None,
     ) -> None:
         super().__init__()
@@ -126,6 +134,7 @@ class NSGame(AECEnv):
         if monitor_action not in MONITOR_ACTIONS:
             raise ValueError(f"monitor_action={monitor_action!r}; allowed: {MONITOR_ACTIONS}")
         self._monitor_flags_only = monitor_action == "flags"
+        self._monitor_reward = monitor_reward_of(monitor_reward)
         self._nature = process.nature_interface(nature_action, nature_observes_state)
         self._renderer = Renderer(family, render_mode)
         self.render_mode = render_mode
@@ -195,6 +204,9 @@ class NSGame(AECEnv):
         self._rewarded = False
         self._scripted = None
         self._scripted_notice = None
+        reset_reward = getattr(self._monitor_reward, "reset", None)
+        if callable(reset_reward):
+            reset_reward()
         if self.render_mode == "human":
             self.render()
 
@@ -249,10 +261,15 @@ class NSGame(AECEnv):
             self._scripted = None
         elif agent == MONITOR:
             if self._is_policy_notice(action):  # the policy's own notification, exact
+                flags = self._scripted_notice[4]  # type: ignore[index]  # checked just now
                 process.play_until(DECISION)
             else:
-                process.monitor_turn(*self._notification_of(action))
+                flags, sizes = self._notification_of(action)
+                process.monitor_turn(flags, sizes)
             self._scripted_notice = None
+            if self._monitor_reward is not None:
+                self._pay_monitor(float(self._monitor_reward(process, tuple(flags))))
+                return
         else:
             action = process.family.check_action(action)
         # Rewards arise only from the transition at the end of the decision turn; the other
@@ -265,6 +282,13 @@ class NSGame(AECEnv):
             self.rewards = dict.fromkeys(AGENTS, 0.0)
             self._rewarded = False
         self.agent_selection = process.turn
+
+    def _pay_monitor(self, reward: float) -> None:
+        """The monitor's reward for the notification it just sent; the agent's turn follows."""
+        self._cumulative_rewards[MONITOR] = reward  # what it earned since it last acted
+        self.rewards = {NATURE: 0.0, MONITOR: reward, DECISION: 0.0}
+        self._rewarded = True
+        self.agent_selection = self._process.turn
 
     def _decision_turn(self, action: Any) -> None:
         process = self._process

@@ -20,7 +20,8 @@ changes them:
 * **No seat has an action space RLlib refuses**: nature acts with ``Box(-1, 1)`` per
   parameter (the game's ``nature_action="normalized"``), the agent with its family's action
   space, and the monitor, when it is a learner (``scripted_monitor=False``), with one 0/1 flag
-  per parameter (``MultiDiscrete``; ``monitor_action="flags"``). By default
+  per parameter (``MultiDiscrete``; ``monitor_action="flags"``), paid by the game's
+  ``monitor_reward`` (``"detection"`` or a function; required then). By default
   (``scripted_monitor=True``) the monitor is not an RL agent at all: its turns are played by
   the game's configured monitor (the oracle unless ``monitor=`` says otherwise), and RLlib sees
   a two-agent game of nature and agent.
@@ -190,14 +191,24 @@ def env_creator(
         flatten: Flatten ``Dict`` observations (see :class:`GameForRLlib`).
         **game_kwargs: The game's arguments (``params``, ``constraints``, ``notification``,
             ``max_episode_steps``, ``nature_observes_state``...); ``nature_action`` is set to
-            ``"normalized"`` and, with a learning monitor, ``monitor_action`` to ``"flags"``.
+            ``"normalized"`` and, with a learning monitor, ``monitor_action`` to ``"flags"``;
+            a learning monitor needs ``monitor_reward`` (``"detection"`` or a function).
             RLlib's ``env_config`` entries override them.
+
+    Raises:
+        ValueError: ``scripted_monitor=False`` without a ``monitor_reward``.
     """
     import ns_pz
 
     game_kwargs["nature_action"] = "normalized"
     if not scripted_monitor:
         game_kwargs["monitor_action"] = "flags"
+        if game_kwargs.get("monitor_reward") is None:
+            raise ValueError(
+                "scripted_monitor=False makes the monitor a learner, which needs a reward: "
+                "pass monitor_reward='detection' or a function fn(process, flags) -> float "
+                "(without one the game pays the monitor 0 and it learns nothing)"
+            )
 
     def create(env_config: Any = None) -> Any:
         from ray.rllib.env.wrappers.pettingzoo_env import PettingZooEnv

@@ -16,8 +16,7 @@ planning models and the policies playing the other seats.
 
 from __future__ import annotations
 
-import copy
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -26,7 +25,7 @@ from gymnasium import spaces
 from ns_pz.checks import flag
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor, as_flags
-from ns_pz.monitor.scoring import detection_reward
+from ns_pz.monitor.scoring import MonitorRewardFn, monitor_reward_of
 from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS, check_default_step
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.nature.policies import Nature
@@ -36,40 +35,6 @@ from ns_pz.regret import NATURE_REWARDS, NatureReward, RegretReference, default_
 from ns_pz.rendering import Renderer, render_metadata
 from ns_pz.seat_policies import DecisionPolicy, check_policy
 from ns_pz.views import ProcessEnv, reset_seeded
-
-MonitorRewardFn = Callable[[NSProcess, tuple], float]
-"""``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
-
-
-class DetectionReward:
-    """The monitor's detection score as a per-turn reward (:func:`ns_pz.monitor.detection_reward`).
-
-    At the monitor's turn of step ``t`` its flags speak about transition ``t - 1``: the reward is
-    -1 per step a true change stays undetected, ``-false_alarm_cost`` per alarm with no change
-    to detect (an alarm at ``t = 0``, before any transition, is one), 0 otherwise; summed over an
-    episode, ``-(delays + undetected time of missed changes) - false_alarm_cost × false
-    alarms``. Call :meth:`reset` at every episode start.
-
-    Args:
-        false_alarm_cost: How many steps of delay one false alarm is worth (``λ``), >= 0.
-    """
-
-    def __init__(self, false_alarm_cost: float = 10.0) -> None:
-        detection_reward(False, False, false_alarm_cost)  # validates the cost
-        self.false_alarm_cost = float(false_alarm_cost)
-        self._pending = False
-
-    def reset(self) -> None:
-        """Start an episode: no change pending."""
-        self._pending = False
-
-    def __call__(self, process: NSProcess, flags: tuple) -> float:
-        """The reward for ``flags`` sent at the monitor's turn of the current step."""
-        about = process.t - 1
-        if about >= 0 and about in process.change_times:
-            self._pending = True
-        reward, self._pending = detection_reward(self._pending, any(flags), self.false_alarm_cost)
-        return reward
 
 
 def single_agent(
@@ -192,11 +157,7 @@ def _check_seat_options(
         raise ValueError(f"nature_action={nature_action!r}; allowed: {NATURE_ACTIONS}")
     flag("nature_observes_state", nature_observes_state)
     check_default_step(default_step)
-    if not (monitor_reward is None or monitor_reward == "detection" or callable(monitor_reward)):
-        raise ValueError(
-            f"monitor_reward={monitor_reward!r}; allowed: None, 'detection' or a function "
-            "fn(process, flags) -> float"
-        )
+    monitor_reward_of(monitor_reward)  # refuses anything else than None, "detection", a function
     for seat in (NATURE, MONITOR):
         if seat not in env_kwargs:
             continue
@@ -317,16 +278,13 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
             self.observation_space = self._interface.observation_space
             self.action_space: spaces.Space[Any] = self._interface.action_space
         else:
-            if monitor_reward == "detection":
-                monitor_reward = DetectionReward()
-            elif callable(getattr(monitor_reward, "reset", None)):
-                monitor_reward = copy.deepcopy(monitor_reward)  # its episode state is ours
-            if monitor_reward is None or not callable(monitor_reward):
+            reward_fn = monitor_reward_of(monitor_reward)
+            if reward_fn is None:
                 raise ValueError(
                     f"monitor_reward={monitor_reward!r}: a learning monitor needs a reward: "
                     "'detection' or a function fn(process, flags) -> float"
                 )
-            self._monitor_reward = monitor_reward
+            self._monitor_reward = reward_fn
             self.observation_space = monitor_observation_space(process.family)
             self.action_space = monitor_flags_space(process.family.params_cls)
 

@@ -620,7 +620,7 @@ def test_an_alarm_at_reset_is_a_false_alarm_for_both_scorings():
         "ns_pz/CartPole-v0",
         MONITOR,
         {DECISION: lambda obs: 0},
-        monitor_reward=ns_pz.seats.DetectionReward(1.0),
+        monitor_reward=ns_pz.monitor.DetectionReward(1.0),
         notification="basic",
         max_episode_steps=5,
     )

@@ -529,3 +529,47 @@ def test_a_refused_reset_leaves_the_episode_and_its_generators_alone():
         env.reset(seed=123, options={"params": {"slip": (0.5, 0.25, 0.25)}})
     after = (env.np_random_seed, env.process.t, env.process.env_rng.bit_generator.state)
     assert after == before
+
+
+def test_monitor_reward_pays_the_monitor_at_its_turn():
+    """The game pays a learning monitor (it paid it nothing).
+
+    With ``DetectionReward``: -1 per step a change is undetected, 0 for the detecting alarm, -λ
+    for a second one.
+    """
+    from ns_pz.monitor import DetectionReward
+
+    nature = ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler({2}), [0.2])})
+    game = ns_pz.make(
+        "ns_pz/CartPole-v0",
+        nature=nature,
+        monitor_action="flags",
+        monitor_reward=DetectionReward(false_alarm_cost=10.0),
+    )
+    silent, alarm = np.zeros(6, np.int64), np.eye(6, dtype=np.int64)[2]
+    for episode in range(2):  # the reward's episode state is reset with the game
+        game.reset(seed=episode)
+        paid, told = [], []
+        for t, flags in enumerate([silent] * 4 + [alarm, alarm, silent]):
+            game.step(game.policy_action(NATURE))
+            assert game.agent_selection == MONITOR
+            told.append(game.last()[1])  # what the monitor earned since it last acted
+            game.step(flags)
+            paid.append(game.rewards[MONITOR])
+            assert game.rewards[NATURE] == game.rewards[DECISION] == 0.0
+            assert game.agent_selection == DECISION
+            game.step(t % 2)
+            assert game.rewards[MONITOR] == 0.0
+        # The monitor at step t speaks of transition t - 1; the change is at transition 2.
+        assert paid == [0.0, 0.0, 0.0, -1.0, 0.0, -10.0, 0.0]
+        assert told == [0.0, *paid[:-1]]
+
+
+def test_monitor_reward_is_refused_unless_none_detection_or_a_function():
+    """A bad reward is named; an RLlib monitor learner without one is refused."""
+    with pytest.raises(ValueError, match="monitor_reward='detect'; allowed: None, 'detection'"):
+        ns_pz.make("ns_pz/CartPole-v0", monitor_reward="detect")
+    from ns_pz.rllib import env_creator
+
+    with pytest.raises(ValueError, match="needs a reward: pass monitor_reward='detection'"):
+        env_creator("ns_pz/CartPole-v0", scripted_monitor=False)

@@ -7,6 +7,7 @@ from ns_pz.monitor.monitors import Monitor, OracleMonitor
 from ns_pz.monitor.noisy import NoisyOracleMonitor
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.monitor.scoring import (
+    DetectionReward,
     DetectionSummary,
     EpisodeDetection,
     detection_metrics,
@@ -15,6 +16,7 @@ from ns_pz.monitor.scoring import (
 )
 
 __all__ = [
+    "DetectionReward",
     "DetectionSummary",
     "EpisodeDetection",
     "Monitor",

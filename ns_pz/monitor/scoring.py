@@ -1,4 +1,4 @@
-"""Scoring change detection: delays, false alarms, misses, and a per-step reward for a monitor.
+"""Scoring change detection: delays, false alarms, misses, and per-step rewards for a monitor.
 
 Times are transition indices. A change at ``τ`` (:attr:`~ns_pz.process.GroundTruth.change_times`)
 applies to transition ``τ``. An alarm at ``α`` is a notification with at least one flag raised
@@ -21,10 +21,15 @@ When an alarm is a detection, and when a false alarm:
 
 from __future__ import annotations
 
+import copy
 import math
 import numbers
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, cast
+
+if TYPE_CHECKING:
+    from ns_pz.process import NSProcess
 
 
 @dataclass(frozen=True)
@@ -203,6 +208,65 @@ def detection_reward(
     if alarm:
         return (0.0, False) if undetected_change else (-float(false_alarm_cost), False)
     return (-1.0, True) if undetected_change else (0.0, False)
+
+
+MonitorRewardFn = Callable[["NSProcess", tuple], float]
+"""``fn(process, flags) -> reward``: what the monitor earns for the flags it just sent."""
+
+
+class DetectionReward:
+    """The monitor's detection score as a per-turn reward (:func:`ns_pz.monitor.detection_reward`).
+
+    At the monitor's turn of step ``t`` its flags speak about transition ``t - 1``: the reward is
+    -1 per step a true change stays undetected, ``-false_alarm_cost`` per alarm with no change
+    to detect (an alarm at ``t = 0``, before any transition, is one), 0 otherwise; summed over an
+    episode, ``-(delays + undetected time of missed changes) - false_alarm_cost × false
+    alarms``. Call :meth:`reset` at every episode start.
+
+    Args:
+        false_alarm_cost: How many steps of delay one false alarm is worth (``λ``), >= 0.
+    """
+
+    def __init__(self, false_alarm_cost: float = 10.0) -> None:
+        detection_reward(False, False, false_alarm_cost)  # validates the cost
+        self.false_alarm_cost = float(false_alarm_cost)
+        self._pending = False
+
+    def reset(self) -> None:
+        """Start an episode: no change pending."""
+        self._pending = False
+
+    def __call__(self, process: NSProcess, flags: tuple) -> float:
+        """The reward for ``flags`` sent at the monitor's turn of the current step."""
+        about = process.t - 1
+        if about >= 0 and about in process.change_times:
+            self._pending = True
+        reward, self._pending = detection_reward(self._pending, any(flags), self.false_alarm_cost)
+        return reward
+
+
+def monitor_reward_of(monitor_reward: Any) -> MonitorRewardFn | None:
+    """What a learning monitor earns, from the ``monitor_reward=`` argument of a game or seat.
+
+    ``"detection"`` becomes a fresh :class:`DetectionReward`; a reward with episode state (a
+    ``reset`` method) is deep-copied, so each environment keeps its own; ``None`` stays
+    ``None``.
+
+    Raises:
+        ValueError: Anything else than ``None``, ``"detection"`` or a callable.
+    """
+    if monitor_reward is None:
+        return None
+    if isinstance(monitor_reward, str) and monitor_reward == "detection":
+        return DetectionReward()
+    if not callable(monitor_reward):
+        raise ValueError(
+            f"monitor_reward={monitor_reward!r}; allowed: None, 'detection' or a function "
+            "fn(process, flags) -> float"
+        )
+    if callable(getattr(monitor_reward, "reset", None)):
+        return copy.deepcopy(monitor_reward)  # its episode state is ours
+    return cast(MonitorRewardFn, monitor_reward)
 
 
 def _check_times(name: str, times: Sequence[int], steps: int, first: int = 0) -> list[int]:
