@@ -633,3 +633,50 @@ def test_an_alarm_at_reset_is_a_false_alarm_for_both_scorings():
         done = terminated or truncated
     alarms = list(range(-1, steps - 1))  # every monitor turn flags: about transitions -1 ..
     assert score_episode([], alarms, steps).false_alarms == -total == steps
+
+
+def test_tabular_cusum_after_two_parameters_changed_compares_each_with_the_others_estimate():
+    """BridgeSplit, both slips 0.9 → 0.5 one after the other: two alarms, beliefs near 0.5.
+
+    Each grid kept the other parameter at θ_0, so once both had changed the CUSUMs alarmed in
+    turn forever (8 false alarms per 1,000 steps) and a belief could end at 0.25.
+    """
+    from ns_pz.agents.exact import equal_split
+    from ns_pz.envs.bridge import SplitBridgeFamily, SplitBridgeParams
+
+    family = SplitBridgeFamily()
+    before, after = equal_split(0.9, 3), equal_split(0.5, 3)
+    thetas = [
+        SplitBridgeParams(slip_left=before, slip_right=before),
+        SplitBridgeParams(slip_left=after, slip_right=before),
+        SplitBridgeParams(slip_left=after, slip_right=after),
+    ]
+    tables = [family.outcomes(theta) for theta in thetas]
+    live = [s for s in range(tables[0].probs.shape[0]) if not family.is_terminal_state(s)]
+    monitor = TabularCusumMonitor(threshold=10.0)
+    monitor.bind(family, thetas[0])
+    episodes = []
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        memory = monitor.initial_memory()
+        alarms = []
+        for t in range(800):
+            table = tables[0 if t < 50 else 1 if t < 300 else 2]
+            state, action = int(rng.choice(live)), int(rng.integers(4))
+            outcome = rng.choice(3, p=table.probs[state, action])
+            observation = {
+                "last_state": state,
+                "last_action": action,
+                "state": int(table.next_states[state, action, outcome]),
+                "relative_time": np.array([t + 1.0]),
+            }
+            flags, _ = monitor.notify(observation, None, memory, rng)
+            if any(flags):
+                alarms.append(t)
+        episodes.append(((50, 300), alarms, 800))
+        believed = monitor.believed_theta(memory)
+        assert abs(believed.slip_left[0] - 0.5) < 0.1
+        assert abs(believed.slip_right[0] - 0.5) < 0.1
+    summary = detection_metrics(episodes)
+    assert summary.detected == 8
+    assert summary.false_alarms <= 2

@@ -26,10 +26,19 @@ A transition impossible under the reference (``P_ref = 0``) is a certain change:
 alarm at once, whatever ``h``. Its log-likelihood ratio is computed with ``P_ref`` floored at
 ``1e-12``, which ranks the grid points by how well they explain it.
 
-The believed θ (:meth:`TabularCusumMonitor.believed_theta`) is θ_0 with the segment's parameter
-at its posterior mean. An alarm's notification flags that parameter, with the family's change
-size (:meth:`~ns_pz.params.Params.change_sizes`) between the θ believed before the alarm and
-after it: the first alarm's size is the estimated distance from θ_0.
+Each parameter's grid varies that parameter with the others at the θ believed: at θ_0 until the
+first alarm, then at the θ believed since. When more than one parameter is watched, the other
+grids are rebuilt at each alarm and, 1, 2, 4, 8, ... transitions into a segment, when its
+posterior mean has moved by more than half a grid step since they were built. So once two
+parameters have changed, each parameter's CUSUM compares against the other's estimate, not its
+θ_0 value (which kept alarming, alternately, forever), nor a stale early estimate (which slowed
+the second detection).
+
+The believed θ (:meth:`TabularCusumMonitor.believed_theta`) is the θ believed when the segment
+opened, with the segment's parameter at its posterior mean. An alarm's notification flags that
+parameter, with the family's change size (:meth:`~ns_pz.params.Params.change_sizes`) between
+the θ believed before the alarm and after it: the first alarm's size is the estimated distance
+from θ_0.
 """
 
 from __future__ import annotations
@@ -66,18 +75,37 @@ class _ParamGrid:
     name: str
     values: tuple[Any, ...]
     probs: np.ndarray
-    """``[S, A, G, K]`` outcome probabilities with the parameter at each grid value (grid axis
-    third, so one (state, action) is one contiguous block)."""
+    """``[S, A, G, K]`` outcome probabilities with the parameter at each grid value and the
+    others at the θ the grid was built around (grid axis third, so one (state, action) is one
+    contiguous block); read-only."""
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> _ParamGrid:
+        return self  # immutable: a copied memory (a planning copy's) shares it
 
 
 class TabularCusumMemory:
     """One episode's detector state."""
 
-    __slots__ = ("reference", "statistics", "restarts", "recent", "segment", "alarms", "trace")
+    __slots__ = (
+        "reference",
+        "grids",
+        "built_around",
+        "statistics",
+        "restarts",
+        "recent",
+        "segment",
+        "alarms",
+        "trace",
+    )
 
-    def __init__(self, theta0: Params, sizes: list[int], window: int) -> None:
+    def __init__(self, theta0: Params, grids: tuple[_ParamGrid, ...], window: int) -> None:
         self.reference = theta0
         """θ believed when the current segment opened (θ_0 before any alarm)."""
+        self.grids = grids
+        """Each watched parameter's grid, built around :attr:`built_around`."""
+        self.built_around = theta0
+        """The θ the grids hold the other parameters at."""
+        sizes = [len(grid.values) for grid in grids]
         self.statistics = [np.zeros(size) for size in sizes]
         """``W_g`` of each watched parameter's grid."""
         self.restarts = [np.zeros(size, np.int64) for size in sizes]
@@ -136,6 +164,10 @@ class TabularCusumMonitor(Detector):
         self.window = window
         self.watched = watched_names(params)
         self._grids: tuple[_ParamGrid, ...] = ()
+        self._names: tuple[str, ...] = ()
+        self._positions: tuple[int, ...] = ()
+        self._half_steps: tuple[float, ...] = ()
+        self._grid_values: tuple[tuple[Any, ...], ...] = ()
         self._structure: np.ndarray | None = None
         self._theta0_probs: np.ndarray | None = None
 
@@ -154,32 +186,52 @@ class TabularCusumMonitor(Detector):
         names = family.params_cls.names() if self.watched is None else self.watched
         family.params_cls.check_names(names)
         reference = _outcome_table(family, theta0)
-        grids = []
-        for name in names:
-            spec = family.params_cls.spec(name)
-            values = _grid_values(spec, self.grid_step, self.scalar_points)
-            probs = np.stack(
-                [_outcome_table(family, theta0.replace(**{name: v})).probs for v in values],
-                axis=2,
-            )
-            grids.append(_ParamGrid(name, values, probs))
         self._family = family
         self._theta0 = theta0
-        self._grids = tuple(grids)
+        self._grid_values = tuple(
+            _grid_values(family.params_cls.spec(name), self.grid_step, self.scalar_points)
+            for name in names
+        )
+        self._names = tuple(names)
+        all_names = family.params_cls.names()
+        self._positions = tuple(all_names.index(name) for name in names)
+        self._half_steps = tuple(
+            0.5 * (self.grid_step if family.params_cls.spec(name).kind == SIMPLEX else _spacing(v))
+            for name, v in zip(names, self._grid_values, strict=True)
+        )
+        self._grids = self._grids_around(theta0)
         self._structure = reference.next_states
         self._theta0_probs = reference.probs
 
+    def _grids_around(self, theta: Params, skip: int | None = None) -> tuple[_ParamGrid, ...]:
+        """Each watched parameter's grid, the other parameters at their values in ``theta``.
+
+        The grid at index ``skip``, if given, is not built (an empty placeholder stands there).
+        """
+        family = self._family
+        assert family is not None  # bound
+        grids = []
+        for i, (name, values) in enumerate(zip(self._names, self._grid_values, strict=True)):
+            if i == skip:
+                grids.append(_ParamGrid(name, values, np.empty(0)))
+                continue
+            probs = np.stack(
+                [_outcome_table(family, theta.replace(**{name: v})).probs for v in values],
+                axis=2,
+            )
+            probs.flags.writeable = False
+            grids.append(_ParamGrid(name, values, probs))
+        return tuple(grids)
+
     def initial_memory(self) -> TabularCusumMemory:
         """θ_0 as the reference, every CUSUM at 0."""
-        return TabularCusumMemory(
-            self._bound_theta0(), [len(g.values) for g in self._grids], self.window
-        )
+        return TabularCusumMemory(self._bound_theta0(), self._grids, self.window)
 
     def believed_theta(self, memory: TabularCusumMemory) -> Params:
-        """θ_0 with the current segment's parameter at its posterior mean (θ_0 before any alarm)."""
+        """The θ believed at the last alarm, its parameter at its posterior mean (θ_0 before)."""
         if memory.segment is None:
             return memory.reference
-        return self._posterior_mean(memory.reference, *memory.segment)
+        return self._posterior_mean(memory, *memory.segment)
 
     def notify(
         self,
@@ -199,7 +251,7 @@ class TabularCusumMonitor(Detector):
         transition = int(observation["relative_time"][0]) - 1
         memory.recent.append((transition, state, action, reached_state))
         assert self._theta0_probs is not None
-        likelihoods = [self._likelihoods(g, state, action, reached_state) for g in self._grids]
+        likelihoods = [self._likelihoods(g, state, action, reached_state) for g in memory.grids]
         reached = self._structure[state, action] == reached_state
         if memory.segment is None:
             p_ref = float(self._theta0_probs[state, action][reached].sum())
@@ -211,6 +263,9 @@ class TabularCusumMonitor(Detector):
                 log_weights += np.log(likelihoods[index])
             if not np.isfinite(log_weights.max()):  # nothing on the grid explains the data
                 log_weights[:] = 0.0
+            into = transition - memory.alarms[-1]
+            if len(memory.grids) > 1 and into & (into - 1) == 0:  # 1, 2, 4, 8, ... in
+                self._follow_segment(memory, index, log_weights)
         impossible = p_ref <= 0.0
         log_ref = math.log(max(p_ref, FLOOR))
         best, best_index = -1.0, -1
@@ -235,7 +290,7 @@ class TabularCusumMonitor(Detector):
         old = self.believed_theta(memory)
         stat = memory.statistics[index]
         start = int(memory.restarts[index][int(np.argmax(stat))])
-        grid = self._grids[index]
+        grid = memory.grids[index]
         log_weights = np.zeros(len(grid.values))
         with np.errstate(divide="ignore"):
             for when, state, action, reached in memory.recent:
@@ -245,13 +300,32 @@ class TabularCusumMonitor(Detector):
             log_weights = stat.copy()
         memory.restarts = [np.full_like(r, transition) for r in memory.restarts]
         memory.segment = (index, log_weights)
-        memory.reference = new = self._posterior_mean(old, index, log_weights)
+        memory.reference = old
+        memory.reference = new = self._posterior_mean(memory, index, log_weights)
+        if len(memory.grids) > 1:  # one parameter's grid is the same around any θ
+            memory.grids = self._grids_around(new)
+            memory.built_around = new
         memory.statistics = [np.zeros_like(s) for s in memory.statistics]
         memory.alarms.append(transition)
-        name = self._grids[index].name
+        name = grid.name
         flags = tuple(int(n == name) for n in old.names())
         sizes = new.change_sizes(old)
         return flags, tuple(float(s) if f else 0.0 for s, f in zip(sizes, flags, strict=True))
+
+    def _follow_segment(
+        self, memory: TabularCusumMemory, index: int, log_weights: np.ndarray
+    ) -> None:
+        """Rebuild the other grids once the segment's estimate has moved by half a grid step."""
+        believed = self._posterior_mean(memory, index, log_weights)
+        moved = believed.change_sizes(memory.built_around)[self._positions[index]]
+        if moved <= self._half_steps[index]:
+            return
+        kept = memory.grids[index]  # it varies the segment's parameter: the same around both
+        memory.grids = tuple(
+            kept if i == index else grid
+            for i, grid in enumerate(self._grids_around(believed, skip=index))
+        )
+        memory.built_around = believed
 
     def _likelihoods(self, grid: _ParamGrid, state: int, action: int, reached: int) -> np.ndarray:
         """Probability of ``state --action--> reached`` under each grid point."""
@@ -259,9 +333,12 @@ class TabularCusumMonitor(Detector):
         hits = self._structure[state, action] == reached
         return grid.probs[state, action][:, hits].sum(axis=1)
 
-    def _posterior_mean(self, theta: Params, index: int, log_weights: np.ndarray) -> Params:
-        """``theta`` with grid ``index``'s parameter at its posterior mean under ``log_weights``."""
-        grid = self._grids[index]
+    def _posterior_mean(
+        self, memory: TabularCusumMemory, index: int, log_weights: np.ndarray
+    ) -> Params:
+        """The memory's reference θ with grid ``index``'s parameter at its posterior mean."""
+        theta = memory.reference
+        grid = memory.grids[index]
         weights = np.exp(log_weights - log_weights.max())
         weights /= weights.sum()
         spec = theta.spec(grid.name)
@@ -304,6 +381,11 @@ def _grid_values(spec: ParamSpec, step: float, points: int) -> tuple[Any, ...]:
         )
     values = np.linspace(spec.low, spec.high, points)
     return tuple(float(v) for v in values if spec.contains(float(v)))
+
+
+def _spacing(values: tuple[Any, ...]) -> float:
+    """The smallest gap between neighbouring values of a scalar grid."""
+    return float(np.diff(np.asarray(values, np.float64)).min()) if len(values) > 1 else 0.0
 
 
 def _compositions(total: int, parts: int) -> list[tuple[int, ...]]:
