@@ -10,10 +10,15 @@ with :func:`ns_pz.monitor.detection_metrics`:
 * **FA/1k**: false alarms per 1,000 steps;
 * **missed**: changes never detected (an episode may end first: FrozenLake's often do).
 
+Without ``--max-delay`` any later alarm inside a change's interval detects it, so a detector
+that misses a change and raises a false alarm much later is scored as detecting it late;
+``--max-delay N`` counts only alarms within ``N`` steps (the others are false alarms).
+
 What a detector can see depends on the trajectory, so the table names the agent that drove it.
 
 Run: ``python benchmarks/bench_detectors.py`` (``--size full``, ``--agents random snapshot_vi``,
-``--specs ...``; ``--smoke``: two episodes per setting, a seconds-long check that it runs).
+``--specs ...``, ``--max-delay N``; ``--smoke``: two episodes per setting, a seconds-long check
+that it runs).
 """
 
 from __future__ import annotations
@@ -39,7 +44,9 @@ def hyper_of(spec: ExperimentSpec, name: str) -> dict[str, Any]:
     return {}
 
 
-def measure(spec: ExperimentSpec, agent_name: str, episodes: int) -> list[dict[str, Any]]:
+def measure(
+    spec: ExperimentSpec, agent_name: str, episodes: int, max_delay: int | None = None
+) -> list[dict[str, Any]]:
     """One row per setting: the detection scores of ``episodes`` seeds in the detector cell."""
     if spec.monitor is None:
         raise ValueError(f"spec {spec.name!r} has no [monitor] table (no detector column)")
@@ -53,7 +60,7 @@ def measure(spec: ExperimentSpec, agent_name: str, episodes: int) -> list[dict[s
             agent = agent_entry(agent_name).make(env, hyper_of(spec, agent_name))
             episode = run_episode(env, agent, seed)
             scored.append((episode.change_times, episode.alarm_times, episode.length))
-        summary = detection_metrics(scored)
+        summary = detection_metrics(scored, max_delay=max_delay)
         rows.append(
             {
                 "spec": spec.name,
@@ -75,6 +82,9 @@ def main() -> None:
     parser.add_argument("--agents", nargs="+", default=["random", "snapshot_vi", "mcts"])
     parser.add_argument("--episodes", type=int, default=None, help="cap on seeds per setting")
     parser.add_argument("--smoke", action="store_true", help="two episodes per setting")
+    parser.add_argument(
+        "--max-delay", type=int, default=None, help="alarms later than this are false alarms"
+    )
     args = parser.parse_args()
     cap = 2 if args.smoke else args.episodes
     print(
@@ -89,7 +99,7 @@ def main() -> None:
             if agent_name not in available:
                 continue
             episodes = spec.episodes if cap is None else min(cap, spec.episodes)
-            for row in measure(spec, agent_name, episodes):
+            for row in measure(spec, agent_name, episodes, args.max_delay):
                 s = row["summary"]
                 delay = "n/a" if s.detected == 0 else f"{s.mean_delay:.1f}"
                 print(
