@@ -98,6 +98,18 @@ def test_matrix_games_strategies_are_optimal_and_respect_barred_columns():
     assert np.all(solved.columns[~allowed] == 0.0)
 
 
+@pytest.mark.parametrize("scale", [1e-12, 1e-9, 1.0, 1e6])
+def test_matrix_games_are_solved_at_any_payoff_scale(scale):
+    """[[3, 0], [1, 2]] × s: value 1.5 s, rows (1/4, 3/4), columns (1/2, 1/2).
+
+    HiGHS's absolute tolerances gave 1.2e-9 and rows (0.4, 0.6) at s = 1e-9.
+    """
+    solved = solve_matrix_games(np.array([[[3.0, 0.0], [1.0, 2.0]]]) * scale)
+    assert solved.values[0] == pytest.approx(1.5 * scale, rel=1e-9)
+    assert solved.rows[0] == pytest.approx([0.25, 0.75], abs=1e-9)
+    assert solved.columns[0] == pytest.approx([0.5, 0.5], abs=1e-9)
+
+
 def test_matrix_games_reject_bad_input():
     """Shapes and a game without any column are caller errors."""
     with pytest.raises(ValueError, match=r"payoffs has shape \(2, 2\)"):

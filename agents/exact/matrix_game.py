@@ -77,10 +77,19 @@ def solve_matrix_games(
     values = lower.copy()
     rows = np.eye(num_rows)[row_choice]
     columns = np.eye(num_columns)[column_choice]
-    mixed = np.flatnonzero(upper - lower > SADDLE_TOLERANCE * np.maximum(1.0, np.abs(lower)))
+    # The payoffs' own scale: HiGHS's tolerances are absolute, so each LP game is solved
+    # shifted and scaled to [0, 1] (the same strategies), and the saddle test is relative to
+    # the payoffs' size (below 1; |value| above), never looser than relative to max(1, |value|).
+    low = worst.min(axis=1)
+    span = np.where(allowed[:, None, :], payoffs, -np.inf).max(axis=(1, 2)) - low
+    scale = np.maximum(np.abs(lower), np.minimum(1.0, span))
+    mixed = np.flatnonzero(upper - lower > SADDLE_TOLERANCE * scale)
     for start in range(0, mixed.size, GAMES_PER_LP):
         chunk = mixed[start : start + GAMES_PER_LP]
-        values[chunk], rows[chunk], columns[chunk] = _solve_stacked(payoffs[chunk], allowed[chunk])
+        shift, size = low[chunk], span[chunk]
+        normalised = (payoffs[chunk] - shift[:, None, None]) / size[:, None, None]
+        unit_values, rows[chunk], columns[chunk] = _solve_stacked(normalised, allowed[chunk])
+        values[chunk] = shift + size * unit_values
     return MatrixGameSolutions(values, rows, columns, int(mixed.size))
 
 
