@@ -84,8 +84,21 @@ class SB3VecEnv(VecEnv):  # type: ignore[misc]  # SB3 is untyped here
         """Nothing to release."""
 
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
-        """The vector env's attribute, once per selected sub-env."""
-        return [getattr(self.env, attr_name)] * len(list(self._get_indices(indices)))
+        """The vector env's attribute, once per selected sub-env (there are no sub-env objects).
+
+        Raises:
+            AttributeError: The vector env has no such attribute (the message says where the
+                per-sub-env θ is).
+        """
+        try:
+            value = getattr(self.env, attr_name)
+        except AttributeError:
+            raise AttributeError(
+                f"get_attr({attr_name!r}): SB3VecEnv steps one batched NSVectorEnv, which has no "
+                f"attribute {attr_name!r} (per-sub-env θ: venv.env.thetas(); its settings: "
+                "venv.env.family, venv.env.num_envs, ...)"
+            ) from None
+        return [value] * len(list(self._get_indices(indices)))
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
         """Refused: the sub-envs share one batched env.
