@@ -470,6 +470,7 @@ def _same_batches(batch: dict[str, np.ndarray], expected: dict[str, np.ndarray])
 
 
 def test_bad_seeds_and_reset_masks_are_refused_by_name() -> None:
+    """A float, bool or str seed (it failed with "not iterable") and bad masks, named."""
     vec = make_vec("ns_pz/CartPole-v0", 2)
     with pytest.raises(ValueError, match="every sub-env at the first reset"):
         vec.reset(options={"reset_mask": np.array([True, False])})
@@ -488,6 +489,7 @@ def test_bad_seeds_and_reset_masks_are_refused_by_name() -> None:
 
 
 def test_the_vector_envs_own_generator_follows_the_seed() -> None:
+    """``reset(seed=s)`` seeds ``np_random`` too (it drew from fresh entropy)."""
     draws = []
     for _ in range(2):
         vec = make_vec("ns_pz/CartPole-v0", 2)
