@@ -110,6 +110,17 @@ def test_matrix_games_are_solved_at_any_payoff_scale(scale):
     assert solved.columns[0] == pytest.approx([0.5, 0.5], abs=1e-9)
 
 
+@pytest.mark.parametrize("far", [-1e3, -1e8])
+def test_matrix_games_with_a_far_dominated_row_keep_their_accuracy(far):
+    """A row never played, far from the others, does not swamp the game.
+
+    Scaling every game to [0, 1] gave value 0 for -1e8.
+    """
+    solved = solve_matrix_games(np.array([[[3.0, 0.0], [1.0, 2.0], [far, far]]]))
+    assert solved.values[0] == pytest.approx(1.5, abs=1e-12)
+    assert solved.rows[0] == pytest.approx([0.25, 0.75, 0.0], abs=1e-9)
+
+
 def test_matrix_games_reject_bad_input():
     """Shapes and a game without any column are caller errors."""
     with pytest.raises(ValueError, match=r"payoffs has shape \(2, 2\)"):

@@ -77,19 +77,23 @@ def solve_matrix_games(
     values = lower.copy()
     rows = np.eye(num_rows)[row_choice]
     columns = np.eye(num_columns)[column_choice]
-    # The payoffs' own scale: HiGHS's tolerances are absolute, so each LP game is solved
-    # shifted and scaled to [0, 1] (the same strategies), and the saddle test is relative to
-    # the payoffs' size (below 1; |value| above), never looser than relative to max(1, |value|).
+    # HiGHS's tolerances are absolute: a game whose payoffs span less than 1 is solved shifted
+    # and magnified to span [0, 1] (the same strategies), and its saddle test is relative to
+    # that span. Wider games are solved as they are (shrinking them would let the tolerance
+    # swallow the differences that decide them when one payoff lies far from the others).
     low = worst.min(axis=1)
     span = np.where(allowed[:, None, :], payoffs, -np.inf).max(axis=(1, 2)) - low
-    scale = np.maximum(np.abs(lower), np.minimum(1.0, span))
+    small = span < 1.0
+    shift, size = np.where(small, low, 0.0), np.where(small, span, 1.0)
+    scale = np.maximum(np.abs(lower), size)  # max(1, |lower|) for the wider games, as before
     mixed = np.flatnonzero(upper - lower > SADDLE_TOLERANCE * scale)
     for start in range(0, mixed.size, GAMES_PER_LP):
         chunk = mixed[start : start + GAMES_PER_LP]
-        shift, size = low[chunk], span[chunk]
-        normalised = (payoffs[chunk] - shift[:, None, None]) / size[:, None, None]
-        unit_values, rows[chunk], columns[chunk] = _solve_stacked(normalised, allowed[chunk])
-        values[chunk] = shift + size * unit_values
+        moved, sized = shift[chunk, None, None], size[chunk, None, None]
+        unit_values, rows[chunk], columns[chunk] = _solve_stacked(
+            (payoffs[chunk] - moved) / sized, allowed[chunk]
+        )
+        values[chunk] = shift[chunk] + size[chunk] * unit_values
     return MatrixGameSolutions(values, rows, columns, int(mixed.size))
 
 
