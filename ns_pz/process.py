@@ -189,7 +189,7 @@ class NSProcess:
         monitor's turn and after the episode ends."""
         self._told_by_monitor = True  # False once a notification comes from outside
         self._start_memory: Any = None
-        """A planning copy's detector memory at the copy, which its own episodes start from
+        """A planning copy's monitor memory at the copy, which its own episodes start from
         (``None``: the monitor's :meth:`~ns_pz.monitor.Monitor.initial_memory`)."""
         self.spent: dict[str, float] = {}
         """Change size charged to nature's budget per parameter this episode (nothing is
@@ -251,7 +251,7 @@ class NSProcess:
         monitor = self.monitor
         if not (theta0 is self.base_theta0 or theta0 == self.base_theta0):
             return EpisodeStart(theta0, monitor.episode_memory(theta0))
-        if self._start_memory is not None:
+        if self._start_memory is not None:  # a planning copy's episode
             return EpisodeStart(theta0, copy.deepcopy(self._start_memory))
         return EpisodeStart(theta0, monitor.initial_memory())
 
@@ -755,18 +755,16 @@ class NSProcess:
         return twin._joined()
 
     def _take_monitor_memory(self, original: NSProcess) -> None:
-        """A copy's monitor goes on from what ``original``'s knows now.
+        """A copy's monitor starts from what ``original``'s knows now, and so do its episodes.
 
-        A detector's memory holds its reference model, bound to the original θ_0 and moved by
-        its alarms to what it believes (the copy's θ when the copy is at the planning θ): a
-        fresh memory would compare the copy's world with the original θ_0 and report changes
-        that never happen there. The copy's own episodes (its ``reset``, from the copy's θ)
-        start from this memory too. A monitor that reads the ground truth keeps nothing that
-        depends on θ_0; the copy's episodes start its memory afresh.
+        That is :meth:`~ns_pz.monitor.Monitor.copy_memory`: a detector's belief (its reference
+        model, moved by its alarms; a fresh memory would compare the copy's world with the
+        original θ_0 and report changes that never happen there), nothing for a monitor that
+        reads the ground truth (it reports the copy's own changes only).
         """
-        self.monitor_memory = copy.deepcopy(original.monitor_memory)
-        if not self.monitor.reads_ground_truth:
-            self._start_memory = copy.deepcopy(original.monitor_memory)
+        start = self.monitor.copy_memory(original.monitor_memory)
+        self._start_memory = start
+        self.monitor_memory = copy.deepcopy(start)
 
     def _joined(self) -> NSProcess:
         """This copy, brought to the agent's turn (where a planner or a view takes over)."""

@@ -94,6 +94,7 @@ class TabularCusumMemory:
         "restarts",
         "recent",
         "segment",
+        "segment_age",
         "alarms",
         "trace",
     )
@@ -114,6 +115,8 @@ class TabularCusumMemory:
         """The last transitions as (index, state, action, next state)."""
         self.segment: tuple[int, np.ndarray] | None = None
         """(grid index, log posterior weights over that grid) since the last alarm."""
+        self.segment_age = 0
+        """Transitions seen since the last alarm."""
         self.alarms: list[int] = []
         """Transition indices whose notification raised an alarm."""
         self.trace: list[float] = []
@@ -227,6 +230,20 @@ class TabularCusumMonitor(Detector):
         """θ_0 as the reference, every CUSUM at 0."""
         return TabularCusumMemory(self._bound_theta0(), self._grids, self.window)
 
+    def copy_memory(self, memory: TabularCusumMemory) -> TabularCusumMemory:
+        """The belief alone, for a planning copy: the reference, grids and segment posterior.
+
+        Without the episode's timeline (recent transitions, restarts, alarms, trace), which a
+        deep copy would carry at a cost growing with the episode.
+        """
+        fresh = TabularCusumMemory(memory.reference, memory.grids, self.window)
+        fresh.built_around = memory.built_around
+        if memory.segment is not None:
+            index, log_weights = memory.segment
+            fresh.segment = (index, log_weights.copy())
+            fresh.segment_age = memory.segment_age
+        return fresh
+
     def believed_theta(self, memory: TabularCusumMemory) -> Params:
         """The θ believed at the last alarm, its parameter at its posterior mean (θ_0 before)."""
         if memory.segment is None:
@@ -263,8 +280,8 @@ class TabularCusumMonitor(Detector):
                 log_weights += np.log(likelihoods[index])
             if not np.isfinite(log_weights.max()):  # nothing on the grid explains the data
                 log_weights[:] = 0.0
-            into = transition - memory.alarms[-1]
-            if len(memory.grids) > 1 and into & (into - 1) == 0:  # 1, 2, 4, 8, ... in
+            memory.segment_age = age = memory.segment_age + 1
+            if len(memory.grids) > 1 and age & (age - 1) == 0:  # 1, 2, 4, 8, ... in
                 self._follow_segment(memory, index, log_weights)
         impossible = p_ref <= 0.0
         log_ref = math.log(max(p_ref, FLOOR))
@@ -300,6 +317,7 @@ class TabularCusumMonitor(Detector):
             log_weights = stat.copy()
         memory.restarts = [np.full_like(r, transition) for r in memory.restarts]
         memory.segment = (index, log_weights)
+        memory.segment_age = 0
         memory.reference = old
         memory.reference = new = self._posterior_mean(memory, index, log_weights)
         if len(memory.grids) > 1:  # one parameter's grid is the same around any θ

@@ -200,6 +200,10 @@ class PredictionErrorMonitor(Detector):
         """The episode's own θ_0 as the reference (the model only needs a θ to predict with)."""
         return PredictionErrorMemory(theta0, self.window)
 
+    def copy_memory(self, memory: PredictionErrorMemory) -> PredictionErrorMemory:
+        """The belief alone, for a planning copy: its reference θ, the CUSUM at 0."""
+        return PredictionErrorMemory(memory.reference, self.window)
+
     def believed_theta(self, memory: PredictionErrorMemory) -> Params:
         """θ_0 updated by every change detected so far."""
         return memory.reference

@@ -13,6 +13,7 @@ The game then masks the notification to its level (see
 
 from __future__ import annotations
 
+import copy
 from abc import ABC, abstractmethod
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
@@ -77,6 +78,15 @@ class Monitor(ABC):
         """Fresh memory for an episode that starts from another θ_0 (``reset`` options).
 
         The default is :meth:`initial_memory`: what a monitor keeps does not depend on θ_0.
+        """
+        return self.initial_memory()
+
+    def copy_memory(self, memory: Any) -> Any:
+        """Memory for a planning copy made now from an episode with ``memory`` (left as it is).
+
+        The copy starts each of its episodes from it too. The default is
+        :meth:`initial_memory`: a monitor that reads the ground truth tells the copy about the
+        copy's own changes only, never about the original's still pending or missed ones.
         """
         return self.initial_memory()
 
@@ -170,6 +180,16 @@ class Detector(Monitor):
             f"{type(self).__name__} is bound to {self._family!r} with θ_0 = {self._theta0!r}; "
             f"give {family!r} with θ_0 = {theta0!r} its own instance"
         )
+
+    def copy_memory(self, memory: Any) -> Any:
+        """What the detector knows now, for a planning copy: a deep copy of ``memory``.
+
+        A detector's reference model, moved by its alarms to what it believes, is what the copy
+        needs: a fresh memory would compare the copy's world with θ_0 and report changes that
+        never happen there. Detectors whose memory holds the episode's timeline (recent
+        transitions, a trace) override this to keep just the belief, which is cheaper.
+        """
+        return copy.deepcopy(memory)
 
     def episode_memory(self, theta0: Params) -> Any:
         """Memory for an episode from ``theta0``: refused unless it is the bound θ_0.
