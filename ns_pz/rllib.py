@@ -203,17 +203,18 @@ def env_creator(
     game_kwargs["nature_action"] = "normalized"
     if not scripted_monitor:
         game_kwargs["monitor_action"] = "flags"
-        if game_kwargs.get("monitor_reward") is None:
+
+    def create(env_config: Any = None) -> Any:
+        kwargs = {**game_kwargs, **dict(env_config or {})}
+        if not scripted_monitor and kwargs.get("monitor_reward") is None:
             raise ValueError(
                 "scripted_monitor=False makes the monitor a learner, which needs a reward: "
                 "pass monitor_reward='detection' or a function fn(process, flags) -> float "
-                "(without one the game pays the monitor 0 and it learns nothing)"
+                "(in the game's arguments or env_config; without one the game pays the monitor "
+                "0 and it learns nothing)"
             )
-
-    def create(env_config: Any = None) -> Any:
         from ray.rllib.env.wrappers.pettingzoo_env import PettingZooEnv
 
-        kwargs = {**game_kwargs, **dict(env_config or {})}
         game = ns_pz.make(env_id, **kwargs)
         return PettingZooEnv(GameForRLlib(game, scripted_monitor=scripted_monitor, flatten=flatten))
 

@@ -25,7 +25,11 @@ from gymnasium import spaces
 from ns_pz.checks import flag
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor, as_flags
-from ns_pz.monitor.scoring import MonitorRewardFn, monitor_reward_of
+from ns_pz.monitor.scoring import (  # DetectionReward: still importable from here, its old home
+    DetectionReward,  # noqa: F401
+    MonitorRewardFn,
+    monitor_reward_of,
+)
 from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS, check_default_step
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.nature.policies import Nature
@@ -71,9 +75,10 @@ def single_agent(
         default_step: Per-step allowance of a parameter without a Lipschitz bound, as a
             fraction of its size at θ_0 (see :mod:`ns_pz.nature.interface`).
         monitor_reward: What the learning monitor earns per turn: ``"detection"`` (a
-            :class:`DetectionReward` with λ = 10) or any ``fn(process, flags) -> float``; an
-            object with a ``reset()`` method (a :class:`DetectionReward` of your own λ) is
-            copied, so one instance may serve several environments. Required for
+            :class:`~ns_pz.monitor.DetectionReward` with λ = 10) or any
+            ``fn(process, flags) -> float``; an object with a ``reset()`` method (a
+            :class:`~ns_pz.monitor.DetectionReward` of your own λ) is copied, so one instance
+            may serve several environments. Required for
             ``learner="monitor"``.
         deterministic: Ask SB3-style policies of the other seats deterministically; when
             sampling, they draw from the seed (see :func:`ns_pz.seat_policies.call_policy`).

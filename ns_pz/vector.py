@@ -58,7 +58,7 @@ from ns_pz.nature.schedulers import (
 )
 from ns_pz.observations import agent_observation_space
 from ns_pz.params import SIMPLEX, SIMPLEX_ATOL, Params
-from ns_pz.process import DECISION, NSProcess, check_seed
+from ns_pz.process import DECISION, RESET_OPTIONS, NSProcess, check_seed
 
 ARRAY_SCHEDULERS = (ContinuousScheduler, PeriodicScheduler, DiscreteScheduler, WindowScheduler)
 """Schedulers the array engine evaluates (they draw nothing from nature's generator)."""
@@ -269,6 +269,8 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             options = {key: value for key, value in options.items() if key != "reset_mask"}
         # Checked before any generator is seeded or drawn from: a refused reset changes nothing.
         start = self._processes[0].prepare_episode(options)
+        if options is not None:  # unknown keys were warned of once, just now
+            options = {key: value for key, value in options.items() if key in RESET_OPTIONS}
         if isinstance(seed, (int, np.integer)):  # the vector env's own np_random, as Gymnasium's
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(int(seed))
         for i, one in enumerate(seeds):

@@ -10,6 +10,7 @@ import pytest
 from ns_pz.agents.exact import (
     NatureGrid,
     agent_best_response,
+    averaged_equilibrium,
     blind_value_bounds,
     equal_split,
     exploitability,
@@ -467,6 +468,8 @@ def test_a_game_solved_for_another_game_is_refused_where_it_is_reused():
                 gamma=call["gamma"],
                 game=game,
             )
+    with pytest.raises(ValueError, match="another grid"):
+        averaged_equilibrium(family, free, game)
     reused = exploitability(family, policy, grid, horizon, gamma=0.5, game=game)
     assert reused.game_value == game.value
 

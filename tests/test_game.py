@@ -571,5 +571,10 @@ def test_monitor_reward_is_refused_unless_none_detection_or_a_function():
         ns_pz.make("ns_pz/CartPole-v0", monitor_reward="detect")
     from ns_pz.rllib import env_creator
 
+    create = env_creator("ns_pz/CartPole-v0", scripted_monitor=False)
     with pytest.raises(ValueError, match="needs a reward: pass monitor_reward='detection'"):
-        env_creator("ns_pz/CartPole-v0", scripted_monitor=False)
+        create({})
+    with pytest.raises(ValueError, match="needs a reward"):  # env_config overrides the game's
+        env_creator("ns_pz/CartPole-v0", scripted_monitor=False, monitor_reward="detection")(
+            {"monitor_reward": None}
+        )

@@ -159,7 +159,11 @@ def averaged_equilibrium(env: Any, grid: NatureGrid, game: GameSolution) -> np.n
 
     The weights are the probabilities of the stages under equilibrium play from reset; a
     ``(t, s)`` never reached gets the unweighted mean.
+
+    Raises:
+        ValueError: ``game`` was solved for another family or grid.
     """
+    game.check_reusable(env, grid, game.agent.shape[0], game.gamma)
     tables = grid_tables(env, grid)
     family = family_of(env)
     horizon, num_states, m, levels, num_actions = game.agent.shape
