@@ -224,14 +224,16 @@ size on Python 3.12 and later, use ``sum``)."""
 
 
 def _on_simplex(vector: tuple[float, ...]) -> bool:
-    """Whether every element is in [0, 1] and the sum is 1 within :data:`SIMPLEX_ATOL`.
+    """Whether every element is a Python float in [0, 1] and the sum is 1 within the tolerance.
 
     One pass (NaN fails the range test): the check of every change nature makes to a slip
-    vector, where ``min``, ``max`` and ``sum`` took twice as long.
+    vector, where ``min``, ``max`` and ``sum`` took twice as long. Other numbers (a NumPy
+    float32 sums in float32 and could pass a sum that is off in float64) take the slow path,
+    which makes them floats.
     """
     total = 0.0
     for p in vector:
-        if not 0.0 <= p <= 1.0:
+        if type(p) is not float or not 0.0 <= p <= 1.0:
             return False
         total += p
     return abs(total - 1.0) <= SIMPLEX_ATOL

@@ -258,3 +258,20 @@ def test_evolve_trusted_changes_only_the_given_fields_and_leaves_theta_alone(
     assert new is not theta
     generated = Params.layout_of(theta).evolve.__name__ == "evolve"
     assert generated is not isinstance(theta, _UnslottedParams)  # slots: the generated copy
+
+
+def test_projection_makes_numpy_and_int_vectors_python_floats():
+    """Nature's float32 or int vectors become Python floats on the simplex.
+
+    A float32 proposal summed in float32 (1 + 1.5e-8 in float64) was admitted as it was: θ then
+    held float32 elements, and a later replace() blamed the untouched parameter.
+    """
+    spec = FrozenLakeParams.spec("slip")
+    proposal = tuple(np.array([0.5, 0.3, 0.2], np.float32))
+    granted = spec.project("FrozenLakeParams", proposal)
+    assert all(type(p) is float for p in granted)
+    assert abs(math.fsum(granted) - 1.0) <= 1e-9
+    theta = FrozenLakeParams().replace(slip=granted)
+    assert theta.replace(slip=(1.0, 0.0, 0.0)).slip == (1.0, 0.0, 0.0)
+    ints = spec.project("FrozenLakeParams", (1, 0, 0))
+    assert ints == (1.0, 0.0, 0.0) and all(type(p) is float for p in ints)
