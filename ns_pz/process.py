@@ -472,12 +472,20 @@ class NSProcess:
     def _record_change(self, theta: Params, sizes: dict[str, float] | None = None) -> None:
         """Make ``theta`` the θ in force; log it as the change at step ``t`` (one per step).
 
+        A second change in the same step replaces the first; one back to the θ of the last
+        transition removes it (the transition to come runs under an unchanged θ).
+
         ``sizes``: the change's size per changed parameter, if known (saves recomputing them
         for the notification; a second change in the same step forgets them).
         """
         self.theta = theta
         if self.change_times and self.change_times[-1] == self.t:
-            self.change_values[-1] = theta
+            if theta == self.last_theta:  # changed back within the step: no change at all
+                self.theta = self.last_theta
+                self.change_times.pop()
+                self.change_values.pop()
+            else:
+                self.change_values[-1] = theta
             self._step_sizes = None
         else:
             self.change_times.append(self.t)

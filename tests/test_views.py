@@ -346,3 +346,21 @@ def test_view_flags_and_branches_are_checked_and_numpy_seeds_accepted():
         env.branch(retake_turn=True)
     twin = env.branch(theta=env.base_params.replace(masspole=0.5))
     assert twin.process.theta.masspole == 0.5
+
+
+def test_a_change_taken_back_in_the_same_step_is_no_change():
+    """set_params there and back before a transition: no change time, no notification.
+
+    The ground truth kept a phantom change, which scoring counted as missed.
+    """
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", notification="detailed")
+    env.reset(seed=0)
+    env.set_params(masspole=0.5)
+    env.set_params(masspole=0.1)
+    obs, *_ = env.step(0)
+    truth = env.ground_truth()
+    assert truth.change_times == () and truth.theta is env.process.theta0
+    assert not obs["env_change"].any() and env.process.last_change is None
+    env.set_params(masspole=0.5)  # a real one still counts
+    env.step(0)
+    assert env.ground_truth().change_times == (1,)
