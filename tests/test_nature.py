@@ -388,3 +388,30 @@ def test_delta_actions_that_sum_to_nan_are_refused_even_where_the_space_is_unbou
         with pytest.raises(ValueError, match="outside the action space"):
             interface.proposal(np.array(action), Open())
     assert interface.proposal(np.array([np.inf, 0.0]), Open()) == {"up": np.inf}
+
+
+def test_trajectory_nature_checks_what_it_replays():
+    """Bad recordings are refused up front.
+
+    Non-int or negative times, values that are no parameter sets, another family's values (2.9
+    became 2, -1 passed, dicts failed mid-episode).
+    """
+    import ns_pz
+    from ns_pz.nature import TrajectoryNature
+
+    cart = CartPoleParams(masspole=0.2)
+    with pytest.raises(TypeError, match="2.9 is not an int step"):
+        TrajectoryNature([2.9], [cart])
+    with pytest.raises(ValueError, match="steps >= 0"):
+        TrajectoryNature([-1], [cart])
+    with pytest.raises(TypeError, match="parameter sets of one class"):
+        TrajectoryNature([1], [{"masspole": 0.2}])
+    with pytest.raises(TypeError, match="parameter sets of one class"):
+        TrajectoryNature([1, 2], [cart, FrozenLakeParams()])
+    with pytest.raises(TypeError, match="recorded FrozenLakeParams values"):
+        ns_pz.make_gym("ns_pz/CartPole-v0", nature=TrajectoryNature([1], [FrozenLakeParams()]))
+    replayed = ns_pz.make_gym("ns_pz/CartPole-v0", nature=TrajectoryNature([np.int64(1)], [cart]))
+    replayed.reset(seed=0)
+    replayed.step(0)
+    replayed.step(0)
+    assert replayed.ground_truth().change_values == (cart,)

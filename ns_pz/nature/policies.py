@@ -206,19 +206,43 @@ class TrajectoryNature(Nature):
         change_values: θ after each of those changes.
 
     Raises:
-        ValueError: The two have different lengths, or the times are not increasing.
+        TypeError: A time is not an int, a value not a parameter set (all of one class).
+        ValueError: The two have different lengths, or the times are not increasing
+            non-negative steps.
     """
 
     def __init__(self, change_times: tuple[int, ...] | list[int], change_values: Any) -> None:
+        for t in change_times:
+            if isinstance(t, bool) or not isinstance(t, (int, np.integer)):
+                raise TypeError(f"change_times={change_times!r}: {t!r} is not an int step")
         times = tuple(int(t) for t in change_times)
         values = tuple(change_values)
         if len(times) != len(values):
             raise ValueError(
                 f"change_times has {len(times)} entries but change_values {len(values)}"
             )
-        if any(b <= a for a, b in zip(times, times[1:], strict=False)):
-            raise ValueError(f"change_times={times!r} must be strictly increasing")
+        if any(b <= a for a, b in zip(times, times[1:], strict=False)) or (times and times[0] < 0):
+            raise ValueError(f"change_times={times!r} must be strictly increasing steps >= 0")
+        classes = {type(value) for value in values}
+        if not all(isinstance(value, Params) for value in values) or len(classes) > 1:
+            raise TypeError(
+                "change_values must be parameter sets of one class (as "
+                f"GroundTruth.change_values), got {sorted(c.__name__ for c in classes)}"
+            )
         self._by_time = dict(zip(times, values, strict=True))
+        self._params_cls = classes.pop() if classes else None
+
+    def bind(self, params_cls: type[Params]) -> None:
+        """Check the recorded values are of this family's parameter class.
+
+        Raises:
+            TypeError: They are of another.
+        """
+        if self._params_cls is not None and self._params_cls is not params_cls:
+            raise TypeError(
+                f"TrajectoryNature recorded {self._params_cls.__name__} values; this "
+                f"environment's parameters are {params_cls.__name__}"
+            )
 
     def propose(
         self, t: int, theta: Params, budget_left: float, memory: Any, rng: np.random.Generator
