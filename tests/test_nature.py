@@ -415,3 +415,24 @@ def test_trajectory_nature_checks_what_it_replays():
     replayed.step(0)
     replayed.step(0)
     assert replayed.ground_truth().change_values == (cart,)
+
+
+def test_budget_bounded_increment_stops_at_its_budget_without_a_rounding_step():
+    """Two firings of 0.2 spend B = 0.4 up to rounding; a third does not move.
+
+    It made a change of 1e-16, which the oracle notified.
+    """
+    import ns_pz
+    from ns_pz.nature import BudgetBoundedIncrement, ContinuousScheduler, ScriptedNature
+
+    rule = BudgetBoundedIncrement(ContinuousScheduler(start=0), k=-0.2, B=0.4)
+    env = ns_pz.make_gym(
+        "ns_pz/CliffWalking-v0",
+        params={"slip": (1.0, 0.0, 0.0, 0.0)},
+        nature=ScriptedNature({"slip": rule}),
+        notification="detailed",
+    )
+    env.reset(seed=0)
+    flagged = [bool(env.step(0)[0]["env_change"].any()) for _ in range(5)]
+    assert env.ground_truth().change_times == (0, 1)
+    assert flagged == [True, True, False, False, False]

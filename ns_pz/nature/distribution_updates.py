@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ns_pz.nature.constraints import remaining
 from ns_pz.nature.schedulers import Scheduler, check_non_negative, check_step
 from ns_pz.nature.updates import (
     DistributionUpdateFn,
@@ -244,9 +245,12 @@ class BudgetBoundedIncrement(DistributionUpdateFn):
     """Raises the intended outcome by ``k`` per firing until a total change of ``B`` is spent.
 
     Each firing proposes what :class:`DistributionIncrementUpdate` would (``k < 0`` lowers it
-    instead); the sizes of the changes (total variation) are added up over the episode, and the
-    firing that would exceed ``B`` moves only as far as the budget left allows, along the line
-    towards the proposal. After that the vector stays put. (NS-Gym's class of this name cannot
+    instead); the sizes of the changes it proposes (total variation) are added up over the
+    episode, and the firing that would exceed ``B`` moves only as far as the budget left
+    allows, along the line towards the proposal. After that the vector stays put (a remainder
+    of rounding errors counts as spent). The rule counts what it proposes: a change the game's
+    :class:`~ns_pz.nature.NatureConstraints` shorten is charged in full here; for a budget on
+    what is granted, use ``NatureConstraints(budget=...)``. (NS-Gym's class of this name cannot
     be constructed.)
     """
 
@@ -269,7 +273,7 @@ class BudgetBoundedIncrement(DistributionUpdateFn):
         self, value: Vector, t: int, n: int, rng: np.random.Generator, memory: list[float]
     ) -> Vector:
         """The increment, shortened to the budget left; ``memory[0]`` is charged."""
-        left = self.B - memory[0]
+        left = remaining(self.B, memory[0])
         if left <= 0.0:
             return value
         proposal = shift_first(value, self.k)

@@ -6,11 +6,10 @@ step. A change that fires at step ``t`` applies to transition ``t``: ``DiscreteS
 leaves the first transition (t=0) under θ_0 and changes θ for the second one, which is what the
 NS-Gym paper calls "after the first decision epoch".
 
-Every scheduler takes its first active step explicitly (``start``, ``event_list`` or
-``windows``); none assumes a default, so the timing of an experiment is always written in its
-configuration. Schedulers that count in periods or decay (:class:`PeriodicScheduler`,
-:class:`BurstScheduler`, :class:`DecayingProbabilityScheduler`, :class:`MemorylessScheduler`)
-count from ``start``.
+Every scheduler takes its timing explicitly (``start``, ``event_list`` or ``windows``); none
+assumes a default, so the timing of an experiment is always written in its configuration.
+Schedulers that count in periods or decay (:class:`PeriodicScheduler`, :class:`BurstScheduler`,
+:class:`DecayingProbabilityScheduler`, :class:`MemorylessScheduler`) count from ``start``.
 
 Schedulers hold no state: random ones draw from the generator they are handed (nature's, seeded
 at reset), so one scheduler can serve many environments and the same seed gives the same firing
