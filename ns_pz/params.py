@@ -433,7 +433,16 @@ class Params:
         return np.array(lows, dtype=np.float64), np.array(highs, dtype=np.float64)
 
     def change_sizes(self, previous: Params) -> tuple[float, ...]:
-        """Size of each parameter's change from ``previous`` to ``self`` (0.0 if unchanged)."""
+        """Size of each parameter's change from ``previous`` to ``self`` (0.0 if unchanged).
+
+        Raises:
+            TypeError: ``previous`` is not a parameter set of the same class.
+        """
+        if type(previous) is not type(self):
+            raise TypeError(
+                f"change_sizes(previous={previous!r}) needs a {type(self).__name__} (the θ "
+                "changed from)"
+            )
         return tuple(
             spec.distance(getattr(previous, spec.name), getattr(self, spec.name))
             for spec in self.specs()

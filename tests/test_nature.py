@@ -436,3 +436,12 @@ def test_budget_bounded_increment_stops_at_its_budget_without_a_rounding_step():
     flagged = [bool(env.step(0)[0]["env_change"].any()) for _ in range(5)]
     assert env.ground_truth().change_times == (0, 1)
     assert flagged == [True, True, False, False, False]
+
+
+def test_constraints_hash_and_an_endless_window_is_named():
+    """A frozen NatureConstraints hashes (its derived dicts took part); end=inf points to None."""
+    from ns_pz.nature import ContinuousScheduler, NatureConstraints
+
+    assert len({NatureConstraints(lipschitz=0.1), NatureConstraints(lipschitz=0.1)}) == 1
+    with pytest.raises(TypeError, match="no end: end=None"):
+        ContinuousScheduler(start=0, end=math.inf)  # type: ignore[arg-type]

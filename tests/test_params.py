@@ -275,3 +275,9 @@ def test_projection_makes_numpy_and_int_vectors_python_floats():
     assert theta.replace(slip=(1.0, 0.0, 0.0)).slip == (1.0, 0.0, 0.0)
     ints = spec.project("FrozenLakeParams", (1, 0, 0))
     assert ints == (1.0, 0.0, 0.0) and all(type(p) is float for p in ints)
+
+
+def test_change_sizes_names_a_previous_of_another_class():
+    """It raised AttributeError about a missing field of the other class."""
+    with pytest.raises(TypeError, match="needs a CartPoleParams"):
+        CartPoleParams().change_sizes(FrozenLakeParams())  # type: ignore[arg-type]

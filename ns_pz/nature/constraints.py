@@ -51,8 +51,12 @@ class NatureConstraints:
     lipschitz: float | Mapping[str, float] | None = None
     budget: float | Mapping[str, float] | None = None
     normalized_budget: float | None = None
-    _per_param: Mapping[str, float] = field(default_factory=dict, init=False, repr=False)
-    _budget_per_param: Mapping[str, float] = field(default_factory=dict, init=False, repr=False)
+    _per_param: Mapping[str, float] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+    _budget_per_param: Mapping[str, float] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
     total_budget: float | None = field(default=None, init=False, repr=False, compare=False)
     """The budget shared by all parameters (a single-number ``budget``), or ``None``."""
     has_budget: bool = field(default=False, init=False, repr=False, compare=False)
