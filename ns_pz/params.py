@@ -269,17 +269,37 @@ def scalar(
     unit: str = "",
     doc: str = "",
 ) -> Any:
-    """Declare a scalar parameter field of a :class:`Params` dataclass."""
+    """Declare a scalar parameter field of a :class:`Params` dataclass.
+
+    Raises:
+        ValueError: A NaN bound, ``low > high``, an empty open interval, or a default outside
+            the declared range (caught here, at the declaration, not at the first θ).
+    """
+    low, high, default = float(low), float(high), float(default)
+    if (
+        math.isnan(low)
+        or math.isnan(high)
+        or low > high
+        or (low == high and (low_open or high_open))
+    ):
+        raise ValueError(f"scalar(low={low!r}, high={high!r}) declares an empty or NaN range")
+    above = default > low or (default == low and not low_open)
+    below = default < high or (default == high and not high_open)
+    if not (above and below):
+        raise ValueError(
+            f"scalar(default={default!r}) is outside the declared range "
+            f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}"
+        )
     meta = {
         "kind": SCALAR,
-        "low": float(low),
-        "high": float(high),
+        "low": low,
+        "high": high,
         "low_open": low_open,
         "high_open": high_open,
         "unit": unit,
         "doc": doc,
     }
-    return field(default=float(default), metadata={_SPEC_KEY: meta})
+    return field(default=default, metadata={_SPEC_KEY: meta})
 
 
 def simplex(default: Sequence[float], *, outcomes: Sequence[str], doc: str = "") -> Any:
@@ -289,11 +309,17 @@ def simplex(default: Sequence[float], *, outcomes: Sequence[str], doc: str = "")
         default: The default vector; must lie on the simplex.
         outcomes: One name per element, in order (``("intended", "clockwise", ...)``).
         doc: One line saying what the vector means.
+
+    Raises:
+        ValueError: No outcome, a length mismatch, or a default off the simplex.
     """
-    if len(default) != len(outcomes):
+    if len(default) != len(outcomes) or not outcomes:
         raise ValueError(
-            f"simplex default has {len(default)} elements but outcomes names {len(outcomes)}"
+            f"simplex default has {len(default)} elements but outcomes names {len(outcomes)} "
+            "(at least one)"
         )
+    if not _on_simplex(tuple(float(p) for p in default)):
+        raise ValueError(f"simplex(default={tuple(default)!r}) is not a probability vector")
     meta = {"kind": SIMPLEX, "low": 0.0, "high": 1.0, "outcomes": tuple(outcomes), "doc": doc}
     return field(default=tuple(float(p) for p in default), metadata={_SPEC_KEY: meta})
 

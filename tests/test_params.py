@@ -281,3 +281,21 @@ def test_change_sizes_names_a_previous_of_another_class():
     """It raised AttributeError about a missing field of the other class."""
     with pytest.raises(TypeError, match="needs a CartPoleParams"):
         CartPoleParams().change_sizes(FrozenLakeParams())  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("declare", "match"),
+    [
+        (lambda: scalar(0.5, low=1.0, high=0.0), "empty or NaN range"),
+        (lambda: scalar(0.5, low=math.nan), "empty or NaN range"),
+        (lambda: scalar(0.0, low=0.0, high=0.0, high_open=True), "empty or NaN range"),
+        (lambda: scalar(5.0, low=0.0, high=1.0), "outside the declared range \\[0.0, 1.0\\]"),
+        (lambda: scalar(0.0, low=0.0, low_open=True), "outside the declared range \\(0.0"),
+        (lambda: simplex((0.5, 0.6), outcomes=("a", "b")), "not a probability vector"),
+        (lambda: simplex((), outcomes=()), "at least one"),
+    ],
+)
+def test_a_bad_declaration_is_refused_where_it_is_written(declare, match):
+    """It was accepted, and the first θ failed with a message blaming the value."""
+    with pytest.raises(ValueError, match=match):
+        declare()
