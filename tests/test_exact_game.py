@@ -122,6 +122,19 @@ def test_matrix_games_with_a_far_dominated_row_keep_their_accuracy(far):
     assert solved.rows[0] == pytest.approx([0.25, 0.75, 0.0], abs=1e-9)
 
 
+def test_matrix_games_far_from_zero_are_solved_around_their_value():
+    """Payoffs offset by 1e9 (span 1): HiGHS failed on most such games unshifted."""
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        game = rng.uniform(size=(5, 4))
+        game = (game - game.min()) / (game.max() - game.min()) + 1e9
+        solved = solve_matrix_games(game[None])
+        guaranteed = (solved.rows[0] @ game).min()
+        capped = (game @ solved.columns[0]).max()
+        assert capped - guaranteed <= 1e-6  # float64 resolution at 1e9 is 1.2e-7
+        assert guaranteed - 1e-6 <= solved.values[0] <= capped + 1e-6
+
+
 def test_matrix_games_reject_bad_input():
     """Shapes and a game without any column are caller errors."""
     with pytest.raises(ValueError, match=r"payoffs has shape \(2, 2\)"):

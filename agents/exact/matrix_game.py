@@ -77,14 +77,14 @@ def solve_matrix_games(
     values = lower.copy()
     rows = np.eye(num_rows)[row_choice]
     columns = np.eye(num_columns)[column_choice]
-    # HiGHS's tolerances are absolute: a game whose payoffs span less than 1 is solved shifted
-    # and magnified to span [0, 1] (the same strategies), and its saddle test is relative to
-    # that span. Wider games are solved as they are (shrinking them would let the tolerance
-    # swallow the differences that decide them when one payoff lies far from the others).
+    # HiGHS's tolerances are absolute: every LP game is solved shifted by its maximin (value
+    # near 0, whatever the payoffs' offset) and, if its payoffs span less than 1, magnified to
+    # span 1 (the same strategies); its saddle test is relative to that span. A wider game is
+    # not shrunk: that would let the tolerance swallow the differences that decide it when one
+    # payoff lies far from the others.
     low = worst.min(axis=1)
     span = np.where(allowed[:, None, :], payoffs, -np.inf).max(axis=(1, 2)) - low
-    small = span < 1.0
-    shift, size = np.where(small, low, 0.0), np.where(small, span, 1.0)
+    shift, size = lower, np.where(span < 1.0, span, 1.0)
     scale = np.maximum(np.abs(lower), size)  # max(1, |lower|) for the wider games, as before
     mixed = np.flatnonzero(upper - lower > SADDLE_TOLERANCE * scale)
     for start in range(0, mixed.size, GAMES_PER_LP):
