@@ -459,7 +459,9 @@ class NSProcess:
         """Change θ now, by hand: validated strictly (no projection), applies to transition ``t``.
 
         Recorded in the ground truth and notified like a change by nature; not charged to
-        nature's budget.
+        nature's budget. Setting θ back, in the same step, to the θ of the last transition
+        removes the step's change (nature's included, whose budget stays charged: nature did
+        spend it).
 
         Raises:
             UnknownParam: A name is not a parameter.
@@ -765,12 +767,22 @@ class NSProcess:
     def _take_monitor_memory(self, original: NSProcess) -> None:
         """A copy's monitor starts from what ``original``'s knows now, and so do its episodes.
 
-        That is :meth:`~ns_pz.monitor.Monitor.copy_memory`: a detector's belief (its reference
-        model, moved by its alarms; a fresh memory would compare the copy's world with the
-        original θ_0 and report changes that never happen there), nothing for a monitor that
-        reads the ground truth (it reports the copy's own changes only).
+        That is :meth:`~ns_pz.monitor.Monitor.copy_memory`: a detector's belief, nothing for a
+        monitor that reads the ground truth. A copy at another θ than the one a detector
+        believes (planning at θ_0 below ``detailed``, ``branch(theta=...)``) gets a detector
+        whose reference is the copy's θ where the detector can take one
+        (:meth:`~ns_pz.monitor.Monitor.episode_memory`): believing another θ, it would report
+        the difference as changes that never happen in the copy.
         """
-        start = self.monitor.copy_memory(original.monitor_memory)
+        monitor, memory = self.monitor, original.monitor_memory
+        start = monitor.copy_memory(memory)
+        if not monitor.reads_ground_truth:
+            believed = monitor.believed_theta(memory)
+            if believed is not None and believed != self.theta0:
+                try:
+                    start = monitor.episode_memory(self.theta0)
+                except ValueError:  # bound to its θ_0 (its belief adapts as data come)
+                    pass
         self._start_memory = start
         self.monitor_memory = copy.deepcopy(start)
 

@@ -195,8 +195,8 @@ def env_creator(
             a learning monitor needs ``monitor_reward`` (``"detection"`` or a function).
             RLlib's ``env_config`` entries override them.
 
-    Raises:
-        ValueError: ``scripted_monitor=False`` without a ``monitor_reward``.
+    The returned function raises ``ValueError`` when ``scripted_monitor=False`` and neither
+    the game's arguments nor ``env_config`` give a ``monitor_reward``.
     """
     import ns_pz
 

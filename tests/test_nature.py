@@ -410,7 +410,9 @@ def test_trajectory_nature_checks_what_it_replays():
         TrajectoryNature([1, 2], [cart, FrozenLakeParams()])
     with pytest.raises(TypeError, match="recorded FrozenLakeParams values"):
         ns_pz.make_gym("ns_pz/CartPole-v0", nature=TrajectoryNature([1], [FrozenLakeParams()]))
-    replayed = ns_pz.make_gym("ns_pz/CartPole-v0", nature=TrajectoryNature([np.int64(1)], [cart]))
+    replayed = ns_pz.make_gym(
+        "ns_pz/CartPole-v0", nature=TrajectoryNature((t for t in [np.int64(1)]), [cart])
+    )
     replayed.reset(seed=0)
     replayed.step(0)
     replayed.step(0)
@@ -443,5 +445,10 @@ def test_constraints_hash_and_an_endless_window_is_named():
     from ns_pz.nature import ContinuousScheduler, NatureConstraints
 
     assert len({NatureConstraints(lipschitz=0.1), NatureConstraints(lipschitz=0.1)}) == 1
+    per_param = [NatureConstraints(lipschitz={"a": 0.1}, budget={"a": 1.0}) for _ in "ab"]
+    assert len(set(per_param)) == 1
+    assert NatureConstraints(lipschitz=0.1) != NatureConstraints(lipschitz=0.2)
     with pytest.raises(TypeError, match="no end: end=None"):
         ContinuousScheduler(start=0, end=math.inf)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="must be an int"):
+        ContinuousScheduler(start=0, end=np.array([5, 6]))  # type: ignore[arg-type]

@@ -245,3 +245,54 @@ def test_a_planning_copy_hears_nothing_of_the_originals_pending_reports():
     copy = env.get_planning_env()
     assert _flags_in(copy, 8, np.random.default_rng(0), resets=False) == 0
     assert sum(bool(env.step(t % 2)[0]["env_change"].any()) for t in range(6)) == 1
+
+
+class _CountingAlarm(ns_pz.monitor.Monitor):
+    """A monitor of our own with memory: alarms once, three transitions in."""
+
+    def initial_memory(self) -> dict:
+        return {"seen": 0}
+
+    def notify(self, observation: Any, truth: Any, memory: dict, rng: Any) -> tuple:
+        quiet = (0,) * 6, (0.0,) * 6
+        if observation["relative_time"][0] == 0:
+            return quiet
+        memory["seen"] += 1
+        return ((0, 0, 1, 0, 0, 0), (0.0,) * 6) if memory["seen"] == 3 else quiet
+
+
+def test_a_planning_copy_keeps_the_memory_of_a_monitor_of_ones_own():
+    """A memoryful monitor that is neither an oracle nor a Detector knows what it knew."""
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", monitor=_CountingAlarm(), notification="basic")
+    env.reset(seed=0)
+    for _ in range(4):
+        env.step(0)
+    copy = env.get_planning_env()
+    assert copy.process.monitor_memory == {"seen": 4}
+    assert not any(copy.step(0)[0]["env_change"].any() for _ in range(3))
+
+
+@pytest.mark.parametrize("level", ["basic", "detailed"])
+def test_a_copy_at_another_theta_than_the_detector_believes_rebases_it(level):
+    """A detector whose belief is not the copy's θ is re-based on the copy's θ.
+
+    Below detailed the copy is at θ_0 while the detector believes the new θ (and so does
+    branch(theta=θ_0)): it flagged 17 of 300 steps in a world that never changes.
+    """
+    from ns_pz.nature import DiscreteScheduler, ScriptedNature, StepWiseUpdate
+
+    env = gymnasium.make(
+        "ns_pz/CartPole-v0",
+        nature=ScriptedNature({"length": StepWiseUpdate(DiscreteScheduler([1]), [2.0])}),
+        monitor=ns_pz.monitor.PredictionErrorMonitor(),
+        notification=level,
+        max_episode_steps=1000,
+    ).unwrapped
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        if env.step(int(rng.integers(2)))[0]["env_change"].any():
+            break
+    assert env.process.monitor_memory.reference != env.process.theta0  # it believes a change
+    for copy in (env.get_planning_env(), env.branch(theta=env.process.theta0)):
+        assert _flags_in(copy, 300, np.random.default_rng(1)) == 0

@@ -377,6 +377,9 @@ def test_seat_options_that_reach_their_seat_are_taken():
 def test_a_stateful_monitor_reward_is_copied_per_environment():
     """One DetectionReward handed to several seat envs: each keeps its own episode state."""
     from ns_pz.monitor import DetectionReward
+    from ns_pz.seats import DetectionReward as old_home
+
+    assert old_home is DetectionReward  # still importable where it lived
 
     shared = DetectionReward(2.0)
     kwargs = {"notification": "basic", "monitor_reward": shared}

@@ -406,8 +406,14 @@ def test_the_array_engine_checks_reset_options_as_the_view_does() -> None:
     """Unknown keys warn (they were ignored silently), a list is refused."""
     vec = make_vec("ns_pz/CartPole-v0", 2)
     vec.reset(seed=0)
-    with pytest.warns(UserWarning, match="'speed'"):
+    with pytest.warns(UserWarning, match="'speed'") as caught:
         vec.reset(options={"speed": 2})
+    assert len(caught) == 1
+    processes = make_vec("ns_pz/CartPole-v0", 3, nature=RandomNature(0.05))
+    assert processes.engine == "processes"
+    with pytest.warns(UserWarning, match="'speed'") as caught:  # once, not once per sub-env
+        processes.reset(seed=0, options={"speed": 2})
+    assert len(caught) == 1
     with pytest.raises(TypeError, match="options=\\[1\\]"):
         vec.reset(options=[1])
 

@@ -364,3 +364,23 @@ def test_a_change_taken_back_in_the_same_step_is_no_change():
     env.set_params(masspole=0.5)  # a real one still counts
     env.step(0)
     assert env.ground_truth().change_times == (1,)
+
+
+def test_nature_s_change_taken_back_by_hand_is_no_change_but_stays_charged():
+    """Back from nature's change in the same step: no change time; nature's budget spent."""
+    from ns_pz.nature import DiscreteScheduler, NatureConstraints, ScriptedNature, StepWiseUpdate
+
+    nature = ScriptedNature({"masspole": StepWiseUpdate(DiscreteScheduler([1]), [0.3])})
+    env = ns_pz.make_gym(
+        "ns_pz/CartPole-v0",
+        nature=nature,
+        constraints=NatureConstraints(budget=1.0),
+        notification="detailed",
+    )
+    env.reset(seed=0)
+    env.step(0)  # nature has moved for step 1 when it returns
+    assert env.process.theta.masspole == 0.3
+    env.set_params(masspole=0.1)
+    obs, *_ = env.step(0)
+    assert env.ground_truth().change_times == () and not obs["env_change"].any()
+    assert env.process.spent == {"masspole": pytest.approx(0.2)}

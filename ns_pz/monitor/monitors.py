@@ -84,11 +84,17 @@ class Monitor(ABC):
     def copy_memory(self, memory: Any) -> Any:
         """Memory for a planning copy made now from an episode with ``memory`` (left as it is).
 
-        The copy starts each of its episodes from it too. The default is
-        :meth:`initial_memory`: a monitor that reads the ground truth tells the copy about the
-        copy's own changes only, never about the original's still pending or missed ones.
+        The copy starts each of its episodes from it too. A monitor that reads the ground
+        truth starts afresh (:meth:`initial_memory`): it tells the copy about the copy's own
+        changes only, never about the original's still pending or missed ones. Any other
+        monitor knows what it knew: a deep copy of ``memory`` (a detector's reference model,
+        moved by its alarms; a fresh one would compare the copy's world with θ_0 and report
+        changes that never happen there). Monitors whose memory holds the episode's timeline
+        override this to keep just what they know, which is cheaper.
         """
-        return self.initial_memory()
+        if self.reads_ground_truth:
+            return self.initial_memory()
+        return copy.deepcopy(memory)
 
     @abstractmethod
     def notify(
@@ -180,16 +186,6 @@ class Detector(Monitor):
             f"{type(self).__name__} is bound to {self._family!r} with θ_0 = {self._theta0!r}; "
             f"give {family!r} with θ_0 = {theta0!r} its own instance"
         )
-
-    def copy_memory(self, memory: Any) -> Any:
-        """What the detector knows now, for a planning copy: a deep copy of ``memory``.
-
-        A detector's reference model, moved by its alarms to what it believes, is what the copy
-        needs: a fresh memory would compare the copy's world with θ_0 and report changes that
-        never happen there. Detectors whose memory holds the episode's timeline (recent
-        transitions, a trace) override this to keep just the belief, which is cheaper.
-        """
-        return copy.deepcopy(memory)
 
     def episode_memory(self, theta0: Params) -> Any:
         """Memory for an episode from ``theta0``: refused unless it is the bound θ_0.

@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 from ns_pz.nature.updates import check_real
 from ns_pz.params import SIMPLEX, Params, ParamSpec, Value
@@ -63,6 +64,12 @@ class NatureConstraints:
     """Whether any episode budget applies."""
     unconstrained: bool = field(default=True, init=False, repr=False, compare=False)
     """Whether nothing limits nature beyond the bounds."""
+
+    def __hash__(self) -> int:
+        """Equal constraints hash equally, per-parameter mappings included."""
+        return hash(
+            tuple(_hashable(v) for v in (self.lipschitz, self.budget, self.normalized_budget))
+        )
 
     def __post_init__(self) -> None:
         if isinstance(self.budget, Mapping):
@@ -224,6 +231,10 @@ def _shared_budget_factor(
         if total > left:
             factor = min(factor, left / total)
     return factor
+
+
+def _hashable(value: Any) -> Any:
+    return tuple(sorted(value.items())) if isinstance(value, Mapping) else value
 
 
 def remaining(budget: float, spent: float) -> float:

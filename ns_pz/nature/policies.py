@@ -212,6 +212,7 @@ class TrajectoryNature(Nature):
     """
 
     def __init__(self, change_times: tuple[int, ...] | list[int], change_values: Any) -> None:
+        change_times = tuple(change_times)
         for t in change_times:
             if isinstance(t, bool) or not isinstance(t, (int, np.integer)):
                 raise TypeError(f"change_times={change_times!r}: {t!r} is not an int step")
