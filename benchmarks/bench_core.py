@@ -20,9 +20,11 @@ in an extra case), it times, per transition:
   the same actions as the other cases);
 * with ``ns_gym`` importable, NS-Gym's wrappers on the same schedules.
 
-Resets are not timed. Each round times every case once, in a row; a ratio is taken within each
-round and the median over rounds is reported, which keeps drifting machine load out of the
-ratios. It also times the planning model's save + restore and ``get_planning_env()``.
+Resets are not timed. Each round times every case once, in a row, each after a full garbage
+collection (NS-Gym's cases leave tens of thousands of objects behind, which made whichever case
+came next pay for slower collections: 1.5 or 1.9× for the same compat case); a ratio is taken
+within each round and the median over rounds is reported, which keeps drifting machine load out
+of the ratios. It also times the planning model's save + restore and ``get_planning_env()``.
 
 Run: ``python benchmarks/bench_core.py`` (``--smoke`` for a seconds-long check that it runs).
 """
@@ -30,6 +32,7 @@ Run: ``python benchmarks/bench_core.py`` (``--smoke`` for a seconds-long check t
 from __future__ import annotations
 
 import argparse
+import gc
 import statistics
 import time
 from collections.abc import Callable
@@ -389,6 +392,7 @@ def measure(name: str, steps: int, rounds: int) -> None:
     seconds: dict[str, list[float]] = {case: [] for case in runners}
     for _ in range(rounds):
         for case, run in runners.items():
+            gc.collect()  # each case starts from a clean heap, whatever ran before it
             seconds[case].append(run(actions))
     reference = "" if bench.base_id in gym.registry else " [raw = ns_pz, static]"
     print(f"\n{name}: {steps} steps x {rounds} rounds (median){reference}")
@@ -483,6 +487,7 @@ def measure_vector(name: str, num_envs: int, steps: int, rounds: int) -> None:
     seconds: dict[str, list[float]] = {case: [] for case in envs}
     for _ in range(rounds):
         for case, env in envs.items():
+            gc.collect()
             seconds[case].append(time_vector(env, actions))
     first = next(iter(envs))
     print(f"\n{name}, N={num_envs}: {steps} batch steps x {rounds} rounds (median)")
