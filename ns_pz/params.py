@@ -285,7 +285,7 @@ def scalar(
         raise ValueError(f"scalar(low={low!r}, high={high!r}) declares an empty or NaN range")
     above = default > low or (default == low and not low_open)
     below = default < high or (default == high and not high_open)
-    if not (above and below):
+    if not (above and below and math.isfinite(default)):
         raise ValueError(
             f"scalar(default={default!r}) is outside the declared range "
             f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}"
@@ -313,7 +313,7 @@ def simplex(default: Sequence[float], *, outcomes: Sequence[str], doc: str = "")
     Raises:
         ValueError: No outcome, a length mismatch, or a default off the simplex.
     """
-    if len(default) != len(outcomes) or not outcomes:
+    if len(default) != len(outcomes) or len(outcomes) == 0:
         raise ValueError(
             f"simplex default has {len(default)} elements but outcomes names {len(outcomes)} "
             "(at least one)"

@@ -775,14 +775,18 @@ class NSProcess:
         the difference as changes that never happen in the copy.
         """
         monitor, memory = self.monitor, original.monitor_memory
-        start = monitor.copy_memory(memory)
+        start = None
         if not monitor.reads_ground_truth:
             believed = monitor.believed_theta(memory)
             if believed is not None and believed != self.theta0:
                 try:
-                    start = monitor.episode_memory(self.theta0)
+                    rebased = monitor.episode_memory(self.theta0)
                 except ValueError:  # bound to its θ_0 (its belief adapts as data come)
-                    pass
+                    rebased = None
+                if rebased is not None and monitor.believed_theta(rebased) == self.theta0:
+                    start = rebased  # (a monitor whose episode_memory ignores θ is not re-based)
+        if start is None:
+            start = monitor.copy_memory(memory)
         self._start_memory = start
         self.monitor_memory = copy.deepcopy(start)
 

@@ -135,6 +135,14 @@ def test_matrix_games_far_from_zero_are_solved_around_their_value():
         assert guaranteed - 1e-6 <= solved.values[0] <= capped + 1e-6
 
 
+def test_a_small_game_far_from_zero_is_not_taken_for_a_saddle_point():
+    """Span 1e-3 at 1e9: the saddle test relative to |value| called it pure (gap half the span)."""
+    game = np.array([[1.0, 0.0], [0.25, 0.75]]) * 1e-3 + 1e9
+    solved = solve_matrix_games(game[None])
+    assert solved.linear_programs == 1
+    assert solved.columns[0] == pytest.approx([0.5, 0.5], abs=1e-3)
+
+
 def test_matrix_games_reject_bad_input():
     """Shapes and a game without any column are caller errors."""
     with pytest.raises(ValueError, match=r"payoffs has shape \(2, 2\)"):

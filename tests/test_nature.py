@@ -452,3 +452,14 @@ def test_constraints_hash_and_an_endless_window_is_named():
         ContinuousScheduler(start=0, end=math.inf)  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="must be an int"):
         ContinuousScheduler(start=0, end=np.array([5, 6]))  # type: ignore[arg-type]
+
+
+def test_constraints_keep_their_own_copy_of_a_mapping():
+    """The caller's dict changed later: equality, hash and repr followed it, enforcement not."""
+    from ns_pz.nature import NatureConstraints
+
+    limits = {"masspole": 0.1}
+    constraints = NatureConstraints(lipschitz=limits)
+    seen = {constraints}
+    limits["masspole"] = 0.5
+    assert constraints in seen and constraints.lipschitz == {"masspole": 0.1}

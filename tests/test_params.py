@@ -293,9 +293,16 @@ def test_change_sizes_names_a_previous_of_another_class():
         (lambda: scalar(0.0, low=0.0, low_open=True), "outside the declared range \\(0.0"),
         (lambda: simplex((0.5, 0.6), outcomes=("a", "b")), "not a probability vector"),
         (lambda: simplex((), outcomes=()), "at least one"),
+        (lambda: scalar(math.inf), "outside the declared range"),
     ],
 )
 def test_a_bad_declaration_is_refused_where_it_is_written(declare, match):
     """It was accepted, and the first θ failed with a message blaming the value."""
     with pytest.raises(ValueError, match=match):
         declare()
+
+
+def test_a_simplex_takes_its_outcome_names_from_any_sequence():
+    """An array of names (the emptiness test asked an array for its truth value)."""
+    declared = simplex((0.5, 0.5), outcomes=np.array(["left", "right"]))
+    assert declared.default == (0.5, 0.5)

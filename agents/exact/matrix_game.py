@@ -79,14 +79,13 @@ def solve_matrix_games(
     columns = np.eye(num_columns)[column_choice]
     # HiGHS's tolerances are absolute: every LP game is solved shifted by its maximin (value
     # near 0, whatever the payoffs' offset) and, if its payoffs span less than 1, magnified to
-    # span 1 (the same strategies); its saddle test is relative to that span. A wider game is
-    # not shrunk: that would let the tolerance swallow the differences that decide it when one
-    # payoff lies far from the others.
+    # span 1 (the same strategies); the saddle test is relative to that span (capped at 1). A
+    # wider game is not shrunk: that would let the tolerance swallow the differences that
+    # decide it when one payoff lies far from the others.
     low = worst.min(axis=1)
     span = np.where(allowed[:, None, :], payoffs, -np.inf).max(axis=(1, 2)) - low
     shift, size = lower, np.where(span < 1.0, span, 1.0)
-    scale = np.maximum(np.abs(lower), size)  # max(1, |lower|) for the wider games, as before
-    mixed = np.flatnonzero(upper - lower > SADDLE_TOLERANCE * scale)
+    mixed = np.flatnonzero(upper - lower > SADDLE_TOLERANCE * size)
     for start in range(0, mixed.size, GAMES_PER_LP):
         chunk = mixed[start : start + GAMES_PER_LP]
         moved, sized = shift[chunk, None, None], size[chunk, None, None]

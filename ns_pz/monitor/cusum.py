@@ -171,6 +171,7 @@ class TabularCusumMonitor(Detector):
         self._positions: tuple[int, ...] = ()
         self._half_steps: tuple[float, ...] = ()
         self._grid_values: tuple[tuple[Any, ...], ...] = ()
+        self._value_arrays: tuple[np.ndarray, ...] = ()
         self._structure: np.ndarray | None = None
         self._theta0_probs: np.ndarray | None = None
 
@@ -202,6 +203,7 @@ class TabularCusumMonitor(Detector):
             0.5 * (self.grid_step if family.params_cls.spec(name).kind == SIMPLEX else _spacing(v))
             for name, v in zip(names, self._grid_values, strict=True)
         )
+        self._value_arrays = tuple(np.asarray(v, np.float64) for v in self._grid_values)
         self._grids = self._grids_around(theta0)
         self._structure = reference.next_states
         self._theta0_probs = reference.probs
@@ -360,7 +362,7 @@ class TabularCusumMonitor(Detector):
         weights = np.exp(log_weights - log_weights.max())
         weights /= weights.sum()
         spec = theta.spec(grid.name)
-        values = np.asarray(grid.values, np.float64)
+        values = self._value_arrays[index]  # the grid's values, as floats
         if spec.kind == SIMPLEX:
             mean = values.T @ weights
             estimate: Any = tuple(float(p) for p in mean / mean.sum())

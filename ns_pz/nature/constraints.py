@@ -75,6 +75,7 @@ class NatureConstraints:
         if isinstance(self.budget, Mapping):
             per = {n: _check_limit(f"budget[{n!r}]", v) for n, v in self.budget.items()}
             object.__setattr__(self, "_budget_per_param", per)
+            object.__setattr__(self, "budget", dict(self.budget))  # ours: the caller's may change
         elif self.budget is not None:
             _check_limit("budget", self.budget)
         if self.normalized_budget is not None:
@@ -82,6 +83,7 @@ class NatureConstraints:
         if isinstance(self.lipschitz, Mapping):
             per = {n: _check_limit(f"lipschitz[{n!r}]", v) for n, v in self.lipschitz.items()}
             object.__setattr__(self, "_per_param", per)
+            object.__setattr__(self, "lipschitz", dict(self.lipschitz))
         elif self.lipschitz is not None:
             _check_limit("lipschitz", self.lipschitz)
         # Read at every change nature makes: stored once rather than derived each time.

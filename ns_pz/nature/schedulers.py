@@ -242,7 +242,8 @@ def check_step(name: str, value: object) -> int:
         ValueError: ``value`` is negative.
     """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        hint = " (no end: end=None)" if name == "end" and isinstance(value, float) else ""
+        endless = isinstance(value, float) and math.isinf(value)
+        hint = " (no end: end=None)" if name == "end" and endless else ""
         raise TypeError(f"{name}={value!r} must be an int (a step index){hint}")
     if value < 0:
         raise ValueError(f"{name}={value!r} must be >= 0")
