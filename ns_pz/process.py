@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import copy
 import math
+import os
+import sys
 import warnings
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -244,7 +246,7 @@ class NSProcess:
                     f"reset options {unknown} are not understood and were ignored; "
                     f"understood: {list(RESET_OPTIONS)}",
                     UserWarning,
-                    stacklevel=4,
+                    stacklevel=_caller_outside_libraries(),
                 )
             if options.get("params") is not None:
                 theta0 = _check_params(self.family, options["params"])
@@ -870,6 +872,25 @@ def _check_params(family: EnvFamily, params: Params | Mapping[str, Any] | None) 
     raise TypeError(
         f"params={params!r} must be a {cls.__name__} or a mapping of its parameter names to values"
     )
+
+
+def _caller_outside_libraries() -> int:
+    """``stacklevel`` for a warning raised by this function's caller: the user's frame.
+
+    The first frame outside ns_pz and the libraries that wrap its envs (Gymnasium's wrappers,
+    PettingZoo's), so the warning names the user's line whichever way the reset was reached.
+    """
+    files = (getattr(sys.modules.get(name), "__file__", None) for name in _WRAPPING_PACKAGES)
+    skipped = tuple(os.path.dirname(file) + os.sep for file in files if file)
+    level = 2  # the caller of the function that warns
+    frame: Any = sys._getframe(level)
+    while frame is not None and frame.f_code.co_filename.startswith(skipped):
+        level, frame = level + 1, frame.f_back
+    return level
+
+
+_WRAPPING_PACKAGES = ("ns_pz", "ns_pz.envs", "ns_pz.agents", "gymnasium", "pettingzoo")
+"""Packages whose frames a warning about the user's call skips (those loaded)."""
 
 
 def check_seed(seed: Any) -> int | None:

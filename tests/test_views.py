@@ -384,3 +384,24 @@ def test_nature_s_change_taken_back_by_hand_is_no_change_but_stays_charged():
     obs, *_ = env.step(0)
     assert env.ground_truth().change_times == () and not obs["env_change"].any()
     assert env.process.spent == {"masspole": pytest.approx(0.2)}
+
+
+def test_an_unknown_reset_option_is_reported_at_the_callers_line():
+    """From the view, a gym.make stack, the game and the vector env.
+
+    It named a line one or two frames off, in Gymnasium or Python's own code.
+    """
+    import warnings
+
+    import gymnasium
+
+    for env in (
+        ns_pz.make_gym("ns_pz/CartPole-v0"),
+        gymnasium.make("ns_pz/CartPole-v0"),
+        ns_pz.make("ns_pz/CartPole-v0"),
+        ns_pz.make_vec("ns_pz/CartPole-v0", 2),
+    ):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            env.reset(seed=0, options={"foo": 1})
+        assert [w.filename for w in caught] == [__file__], env
