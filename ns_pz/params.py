@@ -275,31 +275,26 @@ def scalar(
         ValueError: A NaN bound, ``low > high``, an empty open interval, or a default outside
             the declared range (caught here, at the declaration, not at the first θ).
     """
-    low, high, default = float(low), float(high), float(default)
-    if (
-        math.isnan(low)
-        or math.isnan(high)
-        or low > high
-        or (low == high and (low_open or high_open))
-    ):
-        raise ValueError(f"scalar(low={low!r}, high={high!r}) declares an empty or NaN range")
-    above = default > low or (default == low and not low_open)
-    below = default < high or (default == high and not high_open)
-    if not (above and below and math.isfinite(default)):
-        raise ValueError(
-            f"scalar(default={default!r}) is outside the declared range "
-            f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}"
-        )
     meta = {
         "kind": SCALAR,
-        "low": low,
-        "high": high,
+        "low": float(low),
+        "high": float(high),
         "low_open": low_open,
         "high_open": high_open,
         "unit": unit,
         "doc": doc,
     }
-    return field(default=default, metadata={_SPEC_KEY: meta})
+    spec = ParamSpec(name="default", default=float(default), **meta)  # type: ignore[arg-type]
+    lowest, highest = spec.finite_range
+    if math.isnan(spec.low) or math.isnan(spec.high) or lowest > highest:
+        raise ValueError(f"scalar(low={low!r}, high={high!r}) declares an empty or NaN range")
+    try:
+        spec.check("scalar", spec.default)
+    except ParamOutOfRange:
+        raise ValueError(
+            f"scalar(default={default!r}) is outside the declared range {spec.allowed()}"
+        ) from None
+    return field(default=spec.default, metadata={_SPEC_KEY: meta})
 
 
 def simplex(default: Sequence[float], *, outcomes: Sequence[str], doc: str = "") -> Any:
@@ -318,10 +313,15 @@ def simplex(default: Sequence[float], *, outcomes: Sequence[str], doc: str = "")
             f"simplex default has {len(default)} elements but outcomes names {len(outcomes)} "
             "(at least one)"
         )
-    if not _on_simplex(tuple(float(p) for p in default)):
-        raise ValueError(f"simplex(default={tuple(default)!r}) is not a probability vector")
     meta = {"kind": SIMPLEX, "low": 0.0, "high": 1.0, "outcomes": tuple(outcomes), "doc": doc}
-    return field(default=tuple(float(p) for p in default), metadata={_SPEC_KEY: meta})
+    spec = ParamSpec(name="default", default=tuple(default), **meta)  # type: ignore[arg-type]
+    try:
+        vector = spec.check("simplex", spec.default)
+    except ParamOutOfRange:
+        raise ValueError(
+            f"simplex(default={tuple(default)!r}) is not a probability vector"
+        ) from None
+    return field(default=vector, metadata={_SPEC_KEY: meta})
 
 
 class Params:
