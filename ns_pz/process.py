@@ -87,6 +87,8 @@ class EpisodeStart(NamedTuple):
 
     theta0: Params
     monitor_memory: Any
+    explicit: bool = False
+    """Whether the reset's options set θ_0 (then nature draws none)."""
 
 
 class NSProcess:
@@ -122,6 +124,9 @@ class NSProcess:
         self.base_theta0 = _check_params(family, params)
         """θ_0 of every episode that does not set its own (``reset(options={"params": ...})``)."""
         self.theta0 = self.base_theta0
+        self.nominal_theta0 = self.base_theta0
+        """θ_0 as the agent and its detectors know it: the episode's θ_0 unless nature drew a
+        hidden one at reset (:class:`~ns_pz.nature.DomainRandomisation`)."""
         self.nature = StaticNature() if nature is None else nature
         if not isinstance(self.nature, Nature):
             raise TypeError(
@@ -250,12 +255,16 @@ class NSProcess:
                 )
             if options.get("params") is not None:
                 theta0 = _check_params(self.family, options["params"])
+                if not (theta0 is self.base_theta0 or theta0 == self.base_theta0):
+                    return EpisodeStart(theta0, self.monitor.episode_memory(theta0), True)
+                return self._default_start(explicit=True)
+        return self._default_start(explicit=False)
+
+    def _default_start(self, explicit: bool) -> EpisodeStart:
         monitor = self.monitor
-        if not (theta0 is self.base_theta0 or theta0 == self.base_theta0):
-            return EpisodeStart(theta0, monitor.episode_memory(theta0))
         if self._start_memory is not None:  # a planning copy's episode
-            return EpisodeStart(theta0, copy.deepcopy(self._start_memory))
-        return EpisodeStart(theta0, monitor.initial_memory())
+            return EpisodeStart(self.base_theta0, copy.deepcopy(self._start_memory), explicit)
+        return EpisodeStart(self.base_theta0, monitor.initial_memory(), explicit)
 
     def reset(
         self, options: Mapping[str, Any] | None = None, *, prepared: EpisodeStart | None = None
@@ -274,9 +283,14 @@ class NSProcess:
             ValueError: The monitor cannot serve an episode from this θ_0 (a detector bound
                 to another).
         """
-        theta0, monitor_memory = prepared or self.prepare_episode(options)
+        start = prepared or self.prepare_episode(options)
+        theta0 = self.nominal_theta0 = start.theta0
         if self.env_rng is None:
             self.seed(None)
+        if not start.explicit:  # domain randomisation: nature's hidden draw of θ_0
+            drawn = self.nature.initial_params(theta0, cast(np.random.Generator, self.nature_rng))
+            if drawn is not None:
+                theta0 = _check_params(self.family, drawn)
         self.state = self.family.initial_state_under(
             theta0, cast(np.random.Generator, self.env_rng)
         )
@@ -295,7 +309,7 @@ class NSProcess:
         self.change_values = []
         carried, self.carried_nature_memory = self.carried_nature_memory, None
         self.nature_memory = self.nature.initial_memory() if carried is None else carried
-        self.monitor_memory = monitor_memory
+        self.monitor_memory = start.monitor_memory
         self._pending = None
         self.started = True
         self.done = False
@@ -652,21 +666,33 @@ class NSProcess:
         (the monitor seat played from outside), nothing: θ_0. A planner is never handed more
         than its monitor knows.
         """
+        known = self.nominal_theta0
         if not self.level.shows_sizes:
-            return self.theta0
+            return known
         if not self._told_by_monitor:  # someone else's notification: nothing more than θ_0
-            return self.theta0
+            return known
         monitor = self.monitor
         if monitor.reads_ground_truth:
             told = monitor.told_changes(self.monitor_memory)
-            if told is None:
-                return self.last_theta
             names = self.param_names
-            return self.theta0.replace(
+            if told is None:  # every change so far
+                if known is self.theta0:
+                    return self.last_theta
+                told = {i: self.t for i in range(len(names)) if self.parameter_changed(names[i])}
+            return known.replace(
                 **{names[i]: getattr(self.theta_at(at), names[i]) for i, at in told.items()}
             )
         believed = monitor.believed_theta(self.monitor_memory)
-        return self.theta0 if believed is None else believed
+        return known if believed is None else believed
+
+    def parameter_changed(self, name: str) -> bool:
+        """Whether a change of this episode (so far) moved parameter ``name``."""
+        previous = self.theta0
+        for value in self.change_values:
+            if getattr(value, name) != getattr(previous, name):
+                return True
+            previous = value
+        return False
 
     def theta_at(self, transition: int) -> Params:
         """The θ transition ``transition`` of this episode ran under (θ_0 for ``-1``)."""
@@ -705,7 +731,7 @@ class NSProcess:
             raise ResetNeeded(_COPY_BEFORE_RESET)
         twin = copy.copy(self)
         theta = self.planning_theta() if theta is None else theta
-        twin.base_theta0 = twin.theta0 = twin.theta = twin.last_theta = theta
+        twin.base_theta0 = twin.theta0 = twin.nominal_theta0 = twin.theta = twin.last_theta = theta
         twin.nature = _STATIC
         twin.nature_memory = None
         twin.constraints = _UNCONSTRAINED
@@ -747,7 +773,7 @@ class NSProcess:
             raise ResetNeeded(_COPY_BEFORE_RESET)
         twin = copy.copy(self)
         theta = self.planning_theta() if theta is None else theta
-        twin.base_theta0 = twin.theta0 = twin.theta = twin.last_theta = theta
+        twin.base_theta0 = twin.theta0 = twin.nominal_theta0 = twin.theta = twin.last_theta = theta
         twin.nature_memory = copy.deepcopy(self.nature_memory)
         root = self._spawn_planning_seed()
         nature_seq, monitor_seq, planning_seq, seat_seq = root.spawn(4)

@@ -37,6 +37,14 @@ class Nature(ABC):
         """Fresh per-episode memory (``None`` for a memoryless policy)."""
         return None
 
+    def initial_params(self, theta0: Params, rng: np.random.Generator) -> Params | None:
+        """The episode's θ_0 if this nature draws one at reset (``None``: keep ``theta0``).
+
+        Called at every reset that does not set θ_0 explicitly, with the nominal θ_0 and
+        nature's generator just seeded (:class:`~ns_pz.nature.DomainRandomisation`).
+        """
+        return None
+
     def act(self, process: NSProcess) -> Proposal:
         """The proposal for the process's current step; the game calls this once per step.
 
