@@ -1,0 +1,408 @@
+"""How robust is a policy? Its returns over a θ grid, a suite of natures and fresh adversaries.
+
+:func:`evaluate_robustness` plays a decision policy (a callable, an SB3 model or an ns_pz
+``Agent``) in the agent's view of an environment under several *conditions*:
+
+* ``nominal``: θ_0 as configured, with the configured nature (stationary by default);
+* ``grid``: each member of a θ set (:class:`~ns_pz.nature.ThetaSet`, or per-parameter values
+  whose product is taken) as the episode's θ_0;
+* ``nature``: each nature of a suite (schedules, :class:`~ns_pz.nature.DomainRandomisation`,
+  trained natures (:class:`~ns_pz.nature.PolicyNature`)), by label;
+* ``adversary``: natures trained against this very policy (:class:`AdversarySearch`: several
+  training seeds, the strongest picked on selection episodes, scored on the evaluation ones).
+
+Every condition plays the same episode seeds ``seed, seed + 1, ...`` (common random numbers),
+so two policies evaluated with the same ``seed`` meet the same start states and the same
+random draws of nature, and conditions are paired seed by seed. The report gives, per group
+and per nature, the mean, the worst condition's mean (over a grid), the lower ``alpha``-quantile
+and the CVaR of the episode returns, each with a percentile bootstrap interval over seeds
+(:mod:`ns_pz.learning.statistics`), as a table and a figure.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ns_pz.checks import count
+from ns_pz.learning.rollouts import episode_returns
+from ns_pz.learning.statistics import Estimate, bootstrap, cvar, lower_quantile
+from ns_pz.nature.interface import DEFAULT_STEP
+from ns_pz.nature.policies import Nature
+from ns_pz.nature.randomised import ThetaSet
+from ns_pz.params import Params
+from ns_pz.seat_policies import check_policy
+
+NOMINAL, GRID, NATURES, ADVERSARY = "nominal", "grid", "nature", "adversary"
+
+SELECTION_SEED_OFFSET = 1_000_000
+"""Selection episodes of trained adversaries use seeds from ``seed + SELECTION_SEED_OFFSET``."""
+TRAINING_SEED_OFFSET = 2_000_000
+"""Adversary ``k`` trains with seed ``seed + TRAINING_SEED_OFFSET + k``."""
+
+
+@dataclass(frozen=True)
+class AdversarySearch:
+    """Natures trained against the evaluated policy; the strongest one is scored.
+
+    Needs the ``learn`` extra (Stable-Baselines3 and torch).
+    """
+
+    trials: int = 3
+    """Natures trained, each from its own seed."""
+    args: Any = None
+    """How each trains (a :class:`ns_pz.learning.TrainArgs`; default PPO for 20,000 steps)."""
+    selection_episodes: int = 10
+    """Episodes (seeds disjoint from the evaluation's) on which the strongest is picked."""
+    n_envs: int = 1
+    """Environments each nature trains in at once (see :func:`ns_pz.learning.train_adversary`)."""
+    nature_reward: str = "zero_sum"
+    """Nature's payoff in training (see :func:`ns_pz.single_agent`)."""
+    nature_action: str = "normalized"
+    """Nature's action convention."""
+    nature_observes_state: bool = False
+    """Whether nature sees the agent's state and last action."""
+    default_step: float = DEFAULT_STEP
+    """Allowance of a parameter without a Lipschitz bound (fraction of θ_0)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "trials", count("trials", self.trials))
+        object.__setattr__(
+            self, "selection_episodes", count("selection_episodes", self.selection_episodes)
+        )
+        object.__setattr__(self, "n_envs", count("n_envs", self.n_envs))
+
+
+@dataclass(frozen=True)
+class Condition:
+    """The returns of one condition, one per evaluation seed."""
+
+    label: str
+    group: str
+    """``"nominal"``, ``"grid"``, ``"nature"`` or ``"adversary"``."""
+    returns: tuple[float, ...]
+    params: Mapping[str, Any] | None = None
+    """The grid member's θ_0 values (grid conditions only)."""
+
+    @property
+    def mean(self) -> float:
+        """Mean return."""
+        return float(np.mean(self.returns))
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Statistics of a row of the report (a group of conditions or one condition)."""
+
+    label: str
+    conditions: int
+    mean: Estimate
+    worst: Estimate | None
+    """The worst condition's mean (rows of several conditions only)."""
+    quantile: Estimate
+    cvar: Estimate
+
+
+@dataclass
+class RobustnessReport:
+    """What :func:`evaluate_robustness` measured."""
+
+    env_id: str
+    seeds: tuple[int, ...]
+    alpha: float
+    confidence: float
+    conditions: list[Condition]
+    rows: list[Summary]
+    adversaries: list[Any] = field(default_factory=list)
+    """The trained adversary models, in training-seed order."""
+    selection_returns: list[float] = field(default_factory=list)
+    """The policy's mean return against each trained adversary on the selection episodes."""
+    strongest: int | None = None
+    """Index of the adversary scored (the lowest selection return)."""
+
+    def row(self, label: str) -> Summary:
+        """The summary row of ``label`` (``"nominal"``, ``"grid"``, a nature's label, ...).
+
+        Raises:
+            KeyError: No such row; the message lists them.
+        """
+        for summary in self.rows:
+            if summary.label == label:
+                return summary
+        raise KeyError(f"no row {label!r}; rows: {[s.label for s in self.rows]}")
+
+    def table(self) -> str:
+        """The summary as a Markdown table (value [low, high] per statistic)."""
+        q = f"{self.alpha:g}"
+        lines = [
+            f"| condition | n | mean | worst | {q}-quantile | CVaR {q} |",
+            "|---|---|---|---|---|---|",
+        ]
+        for s in self.rows:
+            worst = "" if s.worst is None else str(s.worst)
+            lines.append(
+                f"| {s.label} | {s.conditions} | {s.mean} | {worst} | {s.quantile} | {s.cvar} |"
+            )
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dictionary of every condition's returns and every summary row."""
+
+        def estimate(e: Estimate | None) -> list[float] | None:
+            return None if e is None else [e.value, e.low, e.high]
+
+        return {
+            "env_id": self.env_id,
+            "seeds": list(self.seeds),
+            "alpha": self.alpha,
+            "confidence": self.confidence,
+            "conditions": [
+                {
+                    "label": c.label,
+                    "group": c.group,
+                    "params": None if c.params is None else dict(c.params),
+                    "returns": list(c.returns),
+                }
+                for c in self.conditions
+            ],
+            "rows": [
+                {
+                    "label": s.label,
+                    "conditions": s.conditions,
+                    "mean": estimate(s.mean),
+                    "worst": estimate(s.worst),
+                    "quantile": estimate(s.quantile),
+                    "cvar": estimate(s.cvar),
+                }
+                for s in self.rows
+            ],
+            "selection_returns": self.selection_returns,
+            "strongest": self.strongest,
+        }
+
+    def to_json(self) -> str:
+        """:meth:`to_dict` as JSON text."""
+        return json.dumps(self.to_dict(), indent=1)
+
+    def plot(self, path: str | None = None) -> Any:
+        """A figure: a heatmap of the grid's means (a 2-parameter product grid) and a bar per row.
+
+        Needs matplotlib (the ``plot`` extra). Saved to ``path`` if given.
+
+        Returns:
+            The matplotlib ``Figure``.
+        """
+        from ns_pz.learning.robustness_plot import plot_report
+
+        return plot_report(self, path)
+
+
+def evaluate_robustness(
+    policy: Any,
+    env_id: str,
+    *,
+    grid: ThetaSet | Mapping[str, Sequence[Any]] | None = None,
+    natures: Mapping[str, Nature] | None = None,
+    adversaries: AdversarySearch | None = None,
+    episodes: int = 20,
+    seed: int = 0,
+    alpha: float = 0.1,
+    confidence: float = 0.95,
+    bootstrap_reps: int = 2000,
+    **env_kwargs: Any,
+) -> RobustnessReport:
+    """Score ``policy`` under θ_0, a θ grid, a suite of natures and fresh adversaries.
+
+    Args:
+        policy: The decision policy: a callable ``obs -> action``, an SB3 model (asked
+            deterministically) or an ns_pz ``Agent``.
+        env_id: A registered id.
+        grid: θ_0 values to evaluate at: a :class:`~ns_pz.nature.ThetaSet` or a mapping of
+            parameter names to values (their product). Each member overrides the
+            parameters it names of ``env_kwargs["params"]``.
+        natures: A suite of natures by label, each replacing ``env_kwargs["nature"]``.
+        adversaries: Train natures against ``policy`` and score the strongest.
+        episodes: Evaluation episodes per condition (seeds ``seed ...``).
+        seed: The first evaluation seed; also seeds the bootstrap and adversary training.
+        alpha: Level of the lower quantile and the CVaR, in (0, 1).
+        confidence: Coverage of the bootstrap intervals, in (0, 1).
+        bootstrap_reps: Bootstrap resamples per statistic.
+        **env_kwargs: The environment's arguments for every condition (``params``,
+            ``nature``, ``constraints``, ``notification``, ``max_episode_steps``, ...).
+
+    Returns:
+        A :class:`RobustnessReport`.
+
+    Raises:
+        TypeError / ValueError: A bad argument, before any episode runs.
+    """
+    from ns_pz.seats import single_agent
+
+    check_policy(policy, "agent", "policy")
+    episodes = count("episodes", episodes)
+    bootstrap_reps = count("bootstrap_reps", bootstrap_reps)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed={seed!r} must be an int >= 0")
+    if not isinstance(alpha, (int, float)) or not 0 < alpha < 1:
+        raise ValueError(f"alpha={alpha!r} must lie in (0, 1)")
+    members = _grid_members(grid)
+    suite = _check_natures(natures, env_kwargs)
+    if adversaries is not None and not isinstance(adversaries, AdversarySearch):
+        raise TypeError(f"adversaries={adversaries!r} must be an AdversarySearch or None")
+    seeds = tuple(range(int(seed), int(seed) + episodes))
+
+    def play(**overrides: Any) -> tuple[float, ...]:
+        env = single_agent(env_id, "agent", **{**env_kwargs, **overrides})
+        try:
+            return tuple(episode_returns(env, policy, seeds))
+        finally:
+            env.close()
+
+    conditions = [Condition(NOMINAL, NOMINAL, play())]
+    for member in members:
+        label = ", ".join(f"{k}={_short(v)}" for k, v in member.items())
+        params = _with_member(env_kwargs.get("params"), member)
+        conditions.append(Condition(label, GRID, play(params=params), member))
+    for label, nature in suite.items():
+        conditions.append(Condition(label, NATURES, play(nature=nature)))
+    report_extra: dict[str, Any] = {}
+    if adversaries is not None:
+        report_extra = _find_adversary(policy, env_id, adversaries, int(seed), env_kwargs)
+        strongest = report_extra.pop("nature")
+        conditions.append(Condition(ADVERSARY, ADVERSARY, play(nature=strongest)))
+    rng = np.random.default_rng(int(seed))
+    rows = _summarise(conditions, alpha, confidence, bootstrap_reps, rng)
+    return RobustnessReport(
+        env_id, seeds, float(alpha), float(confidence), conditions, rows, **report_extra
+    )
+
+
+def _summarise(
+    conditions: list[Condition], alpha: float, confidence: float, reps: int, rng: Any
+) -> list[Summary]:
+    def summary(label: str, group: list[Condition]) -> Summary:
+        table = np.array([c.returns for c in group]).T  # [episodes, conditions]: seeds paired
+        kw = {"confidence": confidence, "reps": reps, "rng": rng}
+        worst = None
+        if len(group) > 1:
+            worst = bootstrap(table, lambda t: float(t.mean(axis=0).min()), **kw)
+        return Summary(
+            label,
+            len(group),
+            bootstrap(table, lambda t: float(t.mean()), **kw),
+            worst,
+            bootstrap(table, lambda t: lower_quantile(t.ravel(), alpha), **kw),
+            bootstrap(table, lambda t: cvar(t.ravel(), alpha), **kw),
+        )
+
+    rows = [summary(NOMINAL, [conditions[0]])]
+    grid = [c for c in conditions if c.group == GRID]
+    if grid:
+        rows.append(summary(GRID, grid))
+    rows.extend(summary(c.label, [c]) for c in conditions if c.group in (NATURES, ADVERSARY))
+    if len(conditions) > 1:
+        rows.append(summary("all", conditions))
+    return rows
+
+
+def _find_adversary(
+    policy: Any, env_id: str, search: AdversarySearch, seed: int, env_kwargs: dict[str, Any]
+) -> dict[str, Any]:
+    from ns_pz.learning.training import train_adversary
+    from ns_pz.nature.learned import PolicyNature
+    from ns_pz.seats import single_agent
+
+    models, selection = [], []
+    selection_seeds = range(
+        seed + SELECTION_SEED_OFFSET, seed + SELECTION_SEED_OFFSET + search.selection_episodes
+    )
+    nature_options = {
+        "action": search.nature_action,
+        "observes_state": search.nature_observes_state,
+        "default_step": search.default_step,
+    }
+    kwargs = {k: v for k, v in env_kwargs.items() if k != "nature"}
+    for k in range(search.trials):
+        model = train_adversary(
+            env_id,
+            policy,
+            args=search.args,
+            seed=seed + TRAINING_SEED_OFFSET + k,
+            n_envs=search.n_envs,
+            nature_reward=search.nature_reward,
+            nature_action=search.nature_action,
+            nature_observes_state=search.nature_observes_state,
+            default_step=search.default_step,
+            **kwargs,
+        )
+        env = single_agent(env_id, "agent", nature=PolicyNature(model, **nature_options), **kwargs)
+        selection.append(float(np.mean(episode_returns(env, policy, selection_seeds))))
+        models.append(model)
+    strongest = int(np.argmin(selection))
+    return {
+        "nature": PolicyNature(models[strongest], **nature_options),
+        "adversaries": models,
+        "selection_returns": selection,
+        "strongest": strongest,
+    }
+
+
+def _grid_members(grid: Any) -> list[dict[str, Any]]:
+    if grid is None:
+        return []
+    if isinstance(grid, ThetaSet):
+        return [dict(m) for m in grid]
+    if isinstance(grid, Mapping):
+        return [dict(m) for m in ThetaSet.grid(grid)]
+    raise TypeError(
+        f"grid={grid!r} must be a ThetaSet, a mapping of parameter names to values, or None"
+    )
+
+
+def _check_natures(natures: Any, env_kwargs: Mapping[str, Any]) -> dict[str, Nature]:
+    if natures is None:
+        return {}
+    if not isinstance(natures, Mapping):
+        raise TypeError(f"natures={natures!r} must be a mapping of labels to ns_pz Natures")
+    for label, nature in natures.items():
+        if not isinstance(label, str) or label in (NOMINAL, GRID, ADVERSARY, "all"):
+            raise ValueError(
+                f"natures has the label {label!r}; labels are strings other than "
+                f"{[NOMINAL, GRID, ADVERSARY, 'all']}"
+            )
+        if not isinstance(nature, Nature):
+            raise TypeError(f"natures[{label!r}]={nature!r} must be an ns_pz Nature")
+    return dict(natures)
+
+
+def _with_member(params: Any, member: Mapping[str, Any]) -> Any:
+    if params is None:
+        return dict(member)
+    if isinstance(params, Params):
+        return params.replace(**member)
+    if isinstance(params, Mapping):
+        return {**params, **member}
+    raise TypeError(f"params={params!r} must be a parameter set, a mapping or None")
+
+
+def _short(value: Any) -> str:
+    if np.ndim(value) == 0:
+        return f"{float(value):.4g}"
+    return "(" + ", ".join(f"{float(v):.3g}" for v in value) + ")"
+
+
+__all__ = [
+    "ADVERSARY",
+    "AdversarySearch",
+    "Condition",
+    "GRID",
+    "NATURES",
+    "NOMINAL",
+    "RobustnessReport",
+    "Summary",
+    "evaluate_robustness",
+]
