@@ -1,0 +1,272 @@
+"""Which way of training gives a robust agent? Plain PPO, domain randomisation, RARL, RARL+pool.
+
+Each method trains a PPO agent for the same number of agent steps, from each of several
+training seeds:
+
+* ``plain``: on θ_0, stationary;
+* ``dr``: under domain randomisation (:class:`ns_pz.nature.DomainRandomisation`) over a
+  training box of θ_0 values;
+* ``rarl``: alternating with a PPO nature (:func:`ns_pz.learning.rarl`), the nature held by the
+  game to a Lipschitz bound and a budget on the parameters it may move;
+* ``rarl-pool``: the same, the agent meeting natures drawn from a pool of the last rounds'.
+
+Every final agent is then scored by :func:`ns_pz.learning.evaluate_robustness` with the same
+evaluation seeds: on θ_0, over a θ grid wider than the training box (mean and worst member),
+against a suite of scripted natures, and against fresh PPO adversaries trained against it
+(the strongest of several, picked on selection episodes). Per method the table gives the
+interquartile mean over training seeds with a 95 % percentile-bootstrap interval over seeds
+(rliable's recipe, :func:`ns_pz.learning.aggregate_runs`).
+
+Run from the repository root with the ``learn`` extra (each (method, seed) job is saved as it
+ends; ``--resume`` skips saved ones)::
+
+    python benchmarks/bench_robust.py --out /tmp/bench_robust --workers 2
+    python benchmarks/bench_robust.py --quick --out /tmp/bench_robust_quick   # a smoke run
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+CARTPOLE = "ns_pz/CartPole-v0"
+METHODS = ("plain", "dr", "rarl", "rarl-pool")
+STATISTICS = ("nominal", "grid mean", "grid worst", "suite", "adversary")
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Sizes of one run."""
+
+    agent_steps: int
+    rounds: int
+    eval_episodes: int
+    adversary_trials: int
+    adversary_steps: int
+    grid: dict[str, list[float]]
+
+
+FULL = Budget(
+    agent_steps=48_000,
+    rounds=4,
+    eval_episodes=10,
+    adversary_trials=2,
+    adversary_steps=12_000,
+    grid={"length": [0.25, 0.5, 1.0, 1.5, 2.0], "masspole": [0.05, 0.1, 0.3, 0.6]},
+)
+QUICK = Budget(
+    agent_steps=1024,
+    rounds=2,
+    eval_episodes=2,
+    adversary_trials=1,
+    adversary_steps=512,
+    grid={"length": [0.5, 1.5], "masspole": [0.1]},
+)
+
+
+def constraints() -> Any:
+    """Nature may move the pole's length and mass, within a per-step bound and a budget."""
+    from ns_pz.nature import NatureConstraints
+
+    moves = {"length": (0.05, 1.0), "masspole": (0.02, 0.4)}
+    return NatureConstraints(
+        lipschitz={name: step for name, (step, _) in moves.items()},
+        budget={
+            **{name: total for name, (_, total) in moves.items()},
+            **dict.fromkeys(("gravity", "masscart", "force_mag", "tau"), 0.0),
+        },
+    )
+
+
+def env_kwargs() -> dict[str, Any]:
+    """The environment every method trains and is scored in."""
+    return {"max_episode_steps": 200, "constraints": constraints()}
+
+
+def training_box() -> Any:
+    """Domain randomisation's training distribution (the grid reaches beyond it)."""
+    from ns_pz.nature import DomainRandomisation, Uniform
+
+    return DomainRandomisation({"length": Uniform(0.25, 1.5), "masspole": Uniform(0.05, 0.3)})
+
+
+def suite() -> dict[str, Any]:
+    """Scripted natures every agent meets."""
+    from ns_pz.nature import (
+        ContinuousScheduler,
+        IncrementUpdate,
+        PeriodicScheduler,
+        RandomWalk,
+        ScriptedNature,
+    )
+
+    return {
+        "pole grows": ScriptedNature(
+            {"length": IncrementUpdate(ContinuousScheduler(start=1), k=0.05)}
+        ),
+        "pole mass jumps": ScriptedNature(
+            {"masspole": IncrementUpdate(PeriodicScheduler(period=50, start=1), k=0.2)}
+        ),
+        "random walk": ScriptedNature(
+            {"length": RandomWalk(ContinuousScheduler(start=1), sigma=0.05)}
+        ),
+    }
+
+
+def ppo(steps: int) -> Any:
+    """PPO settings for CartPole (RL Zoo's, 8 environments)."""
+    from ns_pz.learning import TrainArgs
+
+    return TrainArgs(
+        total_timesteps=steps,
+        hyperparameters={
+            "n_steps": 32,
+            "batch_size": 256,
+            "gae_lambda": 0.8,
+            "gamma": 0.98,
+            "n_epochs": 20,
+            "learning_rate": 1e-3,
+            "ent_coef": 0.0,
+        },
+    )
+
+
+def train_agent(method: str, seed: int, budget: Budget) -> Any:
+    """The final agent of ``method`` from training seed ``seed``."""
+    from ns_pz.learning import make_seat_env, rarl, train
+    from ns_pz.seats import single_agent
+
+    kwargs = env_kwargs()
+    if method in ("plain", "dr"):
+        if method == "dr":
+            kwargs["nature"] = training_box()
+        env = make_seat_env(lambda: single_agent(CARTPOLE, "agent", **kwargs), n_envs=8)
+        return train(env, ppo(budget.agent_steps), seed)
+    per_round = budget.agent_steps // budget.rounds
+    result = rarl(
+        CARTPOLE,
+        rounds=budget.rounds,
+        agent_args=ppo(per_round),
+        nature_args=ppo(per_round),
+        seed=seed,
+        population=3 if method == "rarl-pool" else None,
+        n_envs=8,
+        **kwargs,
+    )
+    return result.agent
+
+
+def job(method: str, seed: int, budget: Budget, out: Path) -> dict[str, Any]:
+    """Train and score one agent; save and return its scores."""
+    import torch
+
+    torch.set_num_threads(1)
+    from ns_pz.learning import AdversarySearch, evaluate_robustness
+
+    started = time.perf_counter()
+    agent = train_agent(method, seed, budget)
+    trained = time.perf_counter() - started
+    report = evaluate_robustness(
+        agent,
+        CARTPOLE,
+        grid=budget.grid,
+        natures=suite(),
+        adversaries=AdversarySearch(
+            trials=budget.adversary_trials,
+            args=ppo(budget.adversary_steps),
+            selection_episodes=max(2, budget.eval_episodes // 2),
+            n_envs=8,
+        ),
+        episodes=budget.eval_episodes,
+        seed=100_000,
+        **env_kwargs(),
+    )
+    suite_means = [report.row(label).mean.value for label in suite()]
+    scores = {
+        "nominal": report.row("nominal").mean.value,
+        "grid mean": report.row("grid").mean.value,
+        "grid worst": report.row("grid").worst.value,  # type: ignore[union-attr]
+        "suite": float(np.mean(suite_means)),
+        "adversary": report.row("adversary").mean.value,
+    }
+    record = {
+        "method": method,
+        "seed": seed,
+        "scores": scores,
+        "train_seconds": trained,
+        "total_seconds": time.perf_counter() - started,
+        "report": report.to_dict(),
+    }
+    path = out / f"{method}_{seed}.json"
+    path.write_text(json.dumps(record))
+    return record
+
+
+def table(records: list[dict[str, Any]]) -> str:
+    """IQM over seeds [95 % bootstrap interval] per method and statistic."""
+    from ns_pz.learning import aggregate_runs
+
+    lines = [
+        "| method | seeds | " + " | ".join(STATISTICS) + " |",
+        "|---|---|" + "---|" * len(STATISTICS),
+    ]
+    for method in METHODS:
+        runs = [r for r in records if r["method"] == method]
+        if not runs:
+            continue
+        cells = []
+        for name in STATISTICS:
+            estimate = aggregate_runs([r["scores"][name] for r in runs])
+            cells.append(f"{estimate.value:.1f} [{estimate.low:.1f}, {estimate.high:.1f}]")
+        lines.append(f"| {method} | {len(runs)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Run the jobs (in parallel), then print the table."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--out", type=Path, required=True, help="folder of the per-job JSON")
+    parser.add_argument("--seeds", type=int, default=5, help="training seeds per method")
+    parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--quick", action="store_true", help="tiny sizes: a smoke run")
+    parser.add_argument("--resume", action="store_true", help="keep jobs saved in --out")
+    args = parser.parse_args(argv)
+    budget = QUICK if args.quick else FULL
+    args.out.mkdir(parents=True, exist_ok=True)
+    records = []
+    todo = []
+    for seed in range(args.seeds):
+        for method in args.methods:
+            path = args.out / f"{method}_{seed}.json"
+            if args.resume and path.exists():
+                records.append(json.loads(path.read_text()))
+            else:
+                todo.append((method, seed))
+    started = time.perf_counter()
+    run: Callable[..., Any] = job
+    with ProcessPoolExecutor(max_workers=max(1, args.workers)) as pool:
+        futures = {pool.submit(run, m, s, budget, args.out): (m, s) for m, s in todo}
+        for future in as_completed(futures):
+            record = future.result()
+            records.append(record)
+            print(
+                f"{record['method']} seed {record['seed']}: "
+                + ", ".join(f"{k} {v:.1f}" for k, v in record["scores"].items())
+                + f" ({record['total_seconds']:.0f} s, {time.perf_counter() - started:.0f} s in)",
+                flush=True,
+            )
+    print(table(records))
+
+
+if __name__ == "__main__":
+    main()
