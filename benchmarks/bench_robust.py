@@ -56,12 +56,12 @@ class Budget:
 
 
 FULL = Budget(
-    agent_steps=48_000,
+    agent_steps=32_000,
     rounds=4,
-    eval_episodes=10,
+    eval_episodes=8,
     adversary_trials=2,
-    adversary_steps=12_000,
-    grid={"length": [0.25, 0.5, 1.0, 1.5, 2.0], "masspole": [0.05, 0.1, 0.3, 0.6]},
+    adversary_steps=8_000,
+    grid={"length": [0.25, 0.75, 1.5], "masspole": [0.05, 0.2, 0.5]},
 )
 QUICK = Budget(
     agent_steps=1024,
@@ -74,10 +74,14 @@ QUICK = Budget(
 
 
 def constraints() -> Any:
-    """Nature may move the pole's length and mass, within a per-step bound and a budget."""
+    """Nature may move the pole's length and mass, within a per-step bound and a budget.
+
+    The budget keeps the pole at least 0.2 long: with more, a nature learns to shrink it to
+    almost nothing, where no controller balances it (every agent then lasts about 11 steps).
+    """
     from ns_pz.nature import NatureConstraints
 
-    moves = {"length": (0.05, 1.0), "masspole": (0.02, 0.4)}
+    moves = {"length": (0.02, 0.3), "masspole": (0.01, 0.2)}
     return NatureConstraints(
         lipschitz={name: step for name, (step, _) in moves.items()},
         budget={
@@ -123,7 +127,7 @@ def suite() -> dict[str, Any]:
 
 
 def ppo(steps: int) -> Any:
-    """PPO settings for CartPole (RL Zoo's, 8 environments)."""
+    """PPO settings for CartPole (RL Zoo's, 8 environments, 10 epochs instead of 20)."""
     from ns_pz.learning import TrainArgs
 
     return TrainArgs(
@@ -133,7 +137,7 @@ def ppo(steps: int) -> Any:
             "batch_size": 256,
             "gae_lambda": 0.8,
             "gamma": 0.98,
-            "n_epochs": 20,
+            "n_epochs": 10,
             "learning_rate": 1e-3,
             "ent_coef": 0.0,
         },

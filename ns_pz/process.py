@@ -675,20 +675,23 @@ class NSProcess:
         if monitor.reads_ground_truth:
             told = monitor.told_changes(self.monitor_memory)
             names = self.param_names
-            if told is None:  # every change so far
+            if told is None:  # every change up to the last transition
                 if known is self.theta0:
                     return self.last_theta
-                told = {i: self.t for i in range(len(names)) if self.parameter_changed(names[i])}
+                last = self.t - 1
+                told = {i: last for i, name in enumerate(names) if self.changed_by(name, last)}
             return known.replace(
                 **{names[i]: getattr(self.theta_at(at), names[i]) for i, at in told.items()}
             )
         believed = monitor.believed_theta(self.monitor_memory)
         return known if believed is None else believed
 
-    def parameter_changed(self, name: str) -> bool:
-        """Whether a change of this episode (so far) moved parameter ``name``."""
+    def changed_by(self, name: str, transition: int) -> bool:
+        """Whether a change of this episode up to transition ``transition`` moved ``name``."""
         previous = self.theta0
-        for value in self.change_values:
+        for when, value in zip(self.change_times, self.change_values, strict=True):
+            if when > transition:
+                break
             if getattr(value, name) != getattr(previous, name):
                 return True
             previous = value

@@ -30,6 +30,7 @@ from ns_pz.nature import (  # noqa: E402
     NatureConstraints,
     PolicyNature,
     RandomNature,
+    StaticNature,
 )
 
 CARTPOLE = "ns_pz/CartPole-v0"
@@ -298,3 +299,85 @@ def test_training_leaves_no_log_folders_and_honours_verbose(tmp_path, monkeypatc
     assert model.verbose == 1
     assert "total_timesteps" in capsys.readouterr().out
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_strongest_of_several_adversaries_is_kept_and_holds_on_other_episodes():
+    """Restarts: each nature from its own seed, ranked on selection episodes.
+
+    The one kept is at least as strong as the single run of the first seed on held-out
+    episodes.
+    """
+    torch = pytest.importorskip("torch")
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        trials = ns_pz.learning.train_adversaries(
+            "ns_pz/FrozenLake-v0",
+            SnapshotValueIteration(gamma=0.99),
+            restarts=3,
+            args=TrainArgs(total_timesteps=2048, hyperparameters=PPO_SMALL),
+            seed=0,
+            selection_episodes=20,
+            nature_observes_state=True,
+            **LAKE,
+        )
+    finally:
+        torch.set_num_threads(threads)
+    assert len(trials.models) == len(trials.selection_returns) == 3
+    assert trials.best == int(np.argmin(trials.selection_returns))
+    assert trials.strongest is trials.models[trials.best]
+    single, kept = (
+        planner_return(PolicyNature(model, observes_state=True))
+        for model in (trials.models[0], trials.strongest)
+    )
+    assert kept <= single
+    assert kept < planner_return(None) - 0.2  # it learned to hurt the planner
+
+
+def test_vectorised_training_matches_its_seed_and_runs_in_subprocesses():
+    """n_envs environments: reproducible from the seed, in this process or in subprocesses."""
+    args = TrainArgs(total_timesteps=256, hyperparameters={"n_steps": 32, "batch_size": 64})
+
+    def weights(**kwargs):
+        model = train_adversary(CARTPOLE, balance, args=args, seed=3, **kwargs, **POLE)
+        assert model.n_envs == kwargs.get("n_envs", 1)
+        return [p.detach().numpy().copy() for p in model.policy.parameters()]
+
+    first, again = weights(n_envs=4), weights(n_envs=4)
+    assert all(np.array_equal(a, b) for a, b in zip(first, again, strict=True))
+    parallel = weights(n_envs=2, vec_env="subproc")
+    assert all(np.isfinite(p).all() for p in parallel)
+    with pytest.raises(ValueError, match="vec_env='threads'"):
+        weights(n_envs=2, vec_env="threads")
+    with pytest.raises(ValueError, match="n_envs=0"):
+        weights(n_envs=0)
+
+
+def test_rarl_with_a_population_meets_past_natures_and_scores_a_suite(tmp_path):
+    """The pool grows by the nature the agent met each round, up to its size.
+
+    The suite is scored every round; stochastic opponents follow the seed; a file as out_dir
+    is refused before any training.
+    """
+    small = TrainArgs(total_timesteps=64, hyperparameters={"n_steps": 32, "batch_size": 32})
+
+    def run(**kwargs):
+        options = {"rounds": 1, "eval_episodes": 1, "eval_suite": {"static": StaticNature()}}
+        options.update(kwargs)
+        return rarl(CARTPOLE, agent_args=small, nature_args=small, **options, **POLE)
+
+    result = run(rounds=3, population=1, n_envs=2)
+    assert [entry.population for entry in result.log] == [1, 2, 2]
+    assert len(result.population) == 3
+    assert all(set(entry.suite_returns) == {"static"} for entry in result.log)
+    stochastic = run(deterministic_opponents=False).agent.policy.state_dict()
+    again = run(deterministic_opponents=False).agent.policy.state_dict()
+    assert all((stochastic[k] == again[k]).all() for k in stochastic)
+    file = tmp_path / "a_file"
+    file.write_text("")
+    with pytest.raises(ValueError, match="is a file"):
+        run(out_dir=file)
+    with pytest.raises(ValueError, match="population=0"):
+        run(population=0)
+    with pytest.raises(TypeError, match="eval_suite\\['x'\\]=1"):
+        run(eval_suite={"x": 1})

@@ -287,16 +287,20 @@ def _summarise(
     def summary(label: str, group: list[Condition]) -> Summary:
         table = np.array([c.returns for c in group]).T  # [episodes, conditions]: seeds paired
         kw = {"confidence": confidence, "reps": reps, "rng": rng}
+
+        def pooled(batch: np.ndarray) -> np.ndarray:  # [batch, episodes * conditions]
+            return batch.reshape(len(batch), -1)
+
         worst = None
         if len(group) > 1:
-            worst = bootstrap(table, lambda t: float(t.mean(axis=0).min()), **kw)
+            worst = bootstrap(table, lambda b: b.mean(axis=1).min(axis=-1), **kw)
         return Summary(
             label,
             len(group),
-            bootstrap(table, lambda t: float(t.mean()), **kw),
+            bootstrap(table, lambda b: pooled(b).mean(axis=-1), **kw),
             worst,
-            bootstrap(table, lambda t: lower_quantile(t.ravel(), alpha), **kw),
-            bootstrap(table, lambda t: cvar(t.ravel(), alpha), **kw),
+            bootstrap(table, lambda b: lower_quantile(pooled(b), alpha), **kw),
+            bootstrap(table, lambda b: cvar(pooled(b), alpha), **kw),
         )
 
     rows = [summary(NOMINAL, [conditions[0]])]

@@ -34,27 +34,31 @@ class Estimate:
         return f"{self.value:.4g} [{self.low:.4g}, {self.high:.4g}]"
 
 
-def lower_quantile(returns: np.ndarray, alpha: float) -> float:
-    """The ``alpha``-quantile of ``returns`` (NumPy's linear interpolation)."""
-    return float(np.quantile(returns, alpha))
+def lower_quantile(returns: np.ndarray, alpha: float) -> np.ndarray | float:
+    """The ``alpha``-quantile of ``returns`` (NumPy's linear interpolation) along the last axis."""
+    return np.quantile(returns, alpha, axis=-1)
 
 
-def cvar(returns: np.ndarray, alpha: float) -> float:
-    """The mean of the worst ``ceil(alpha * n)`` returns (lower-tail CVaR; at least one)."""
-    worst = max(1, math.ceil(alpha * len(returns)))
-    return float(np.sort(returns)[:worst].mean())
+def cvar(returns: np.ndarray, alpha: float) -> np.ndarray | float:
+    """The lower-tail CVaR along the last axis: the mean of the worst ``ceil(alpha * n)``."""
+    worst = max(1, math.ceil(alpha * returns.shape[-1]))
+    return np.sort(returns, axis=-1)[..., :worst].mean(axis=-1)
 
 
-def interquartile_mean(values: Sequence[float] | np.ndarray) -> float:
-    """The mean of the middle half: ``floor(n / 4)`` values cut from each end (trimmed mean)."""
-    ordered = np.sort(np.asarray(values, dtype=float).ravel())
-    cut = len(ordered) // 4
-    return float(ordered[cut : len(ordered) - cut].mean())
+def interquartile_mean(values: Sequence[float] | np.ndarray) -> np.ndarray | float:
+    """The mean of the middle half along the last axis (the 25 % trimmed mean).
+
+    ``floor(n / 4)`` values are cut from each end.
+    """
+    ordered = np.sort(np.asarray(values, dtype=float), axis=-1)
+    n = ordered.shape[-1]
+    cut = n // 4
+    return ordered[..., cut : n - cut].mean(axis=-1)
 
 
 def bootstrap(
     samples: np.ndarray,
-    statistic: Callable[[np.ndarray], float],
+    statistic: Callable[[np.ndarray], np.ndarray],
     *,
     confidence: float = 0.95,
     reps: int = 2000,
@@ -65,17 +69,19 @@ def bootstrap(
     Args:
         samples: ``[n]`` or ``[n, conditions]``: rows are resampled with replacement, so the
             columns of one row (the conditions of one seed) stay paired.
-        statistic: Maps an array shaped like ``samples`` to a number.
+        statistic: Maps a batch of arrays shaped like ``samples``, ``[batch, n, ...]``, to
+            ``[batch]`` numbers.
         confidence: The interval's coverage, in (0, 1).
         reps: Bootstrap resamples.
         rng: The generator of the resampling.
     """
     _check_confidence(confidence)
-    value = statistic(samples)
+    samples = np.asarray(samples, dtype=float)
+    value = float(np.asarray(statistic(samples[None]))[0])
     n = len(samples)
     if n < 2:
         return Estimate(value, value, value)
-    draws = np.array([statistic(samples[rng.integers(n, size=n)]) for _ in range(reps)])
+    draws = np.asarray(statistic(samples[rng.integers(n, size=(reps, n))]))
     tail = (1.0 - confidence) / 2.0
     low, high = np.quantile(draws, [tail, 1.0 - tail])
     return Estimate(value, float(low), float(high))
