@@ -1,15 +1,14 @@
-"""A learned nature against every scripted schedule, and RARL against plain training.
+"""A learned nature against every scripted schedule.
 
-(a) On FrozenLake (a value-iteration snapshot agent, notification ``none`` and ``detailed``) and
+On FrozenLake (a value-iteration snapshot agent, notification ``none`` and ``detailed``) and
 on CartPole (a fixed linear controller that balances the stationary pole for 500 steps), a PPO
 nature and every schedule of a grid over the vocabulary (schedulers × update functions) play
 under the same constraints, enforced by the game (:class:`ns_pz.nature.NatureConstraints`): the
 table gives the agent's return against the PPO nature and against the scripted schedule that
 hurt it most (and how many schedules were tried).
 
-(b) On CartPole, an agent trained RARL-style (:func:`ns_pz.learn.rarl`) and one trained
-against the fixed θ_0 with the same number of agent steps are evaluated on θ_0 and against a
-PPO adversary trained afresh against each of them.
+Which way of training gives a robust agent (RARL, domain randomisation, ...) is measured by
+``bench_robust.py``.
 
 The PPO column gives the mean ± standard error over training seeds, and the strongest seed's
 nature, chosen as the worst schedule is (on other episodes than it is scored on) and scored ±
@@ -35,11 +34,9 @@ from typing import Any
 import numpy as np
 from ns_pz.agents import SnapshotValueIteration
 
-import ns_pz
 from ns_pz import nature as N
-from ns_pz.learn import TrainArgs, rarl, train, train_adversary
+from ns_pz.learn import TrainArgs, train_adversary
 from ns_pz.nature import NatureConstraints, PolicyNature
-from ns_pz.process import DECISION
 from ns_pz.seat_policies import DecisionPolicy
 
 LAKE = "ns_pz/FrozenLake-v0"
@@ -221,56 +218,6 @@ def compare(name: str, setting: Setting, args: argparse.Namespace) -> dict[str, 
 PPO = {"n_steps": 512, "batch_size": 64, "learning_rate": 1e-3, "ent_coef": 0.01}
 
 
-def robust(args: argparse.Namespace) -> dict[str, Any]:
-    """RARL agent vs an agent trained on θ_0 alone (same agent steps), on CartPole."""
-    setting = SETTINGS["CartPole, none"]
-    episodes = range(10_000, 10_000 + args.episodes)
-    agent_args = TrainArgs(total_timesteps=args.agent_steps // args.rounds, hyperparameters=PPO)
-    nature_args = TrainArgs(total_timesteps=args.nature_steps // args.rounds, hyperparameters=PPO)
-    rows: dict[str, dict[str, list[float]]] = {"RARL": {}, "θ_0 only": {}}
-    seconds: dict[str, float] = {"RARL": 0.0, "θ_0 only": 0.0}
-    for seed in range(args.seeds):
-        started = time.perf_counter()
-        robust_agent = rarl(
-            setting.env_id,
-            rounds=args.rounds,
-            agent_args=agent_args,
-            nature_args=nature_args,
-            seed=seed,
-            eval_episodes=2,
-            nature_observes_state=True,
-            **setting.env_kwargs,
-        ).agent
-        seconds["RARL"] += time.perf_counter() - started
-        started = time.perf_counter()
-        plain_env = ns_pz.single_agent(setting.env_id, DECISION, **setting.env_kwargs)
-        plain = train(
-            plain_env, TrainArgs(total_timesteps=args.agent_steps, hyperparameters=PPO), seed
-        )
-        seconds["θ_0 only"] += time.perf_counter() - started
-        for label, model in (("RARL", robust_agent), ("θ_0 only", plain)):
-            attacker = train_adversary(
-                setting.env_id,
-                model,
-                args=TrainArgs(total_timesteps=args.nature_steps, hyperparameters=PPO),
-                seed=seed + 100,
-                nature_observes_state=True,
-                **setting.env_kwargs,
-            )
-            nature = PolicyNature(attacker, observes_state=True)
-            scores = rows[label]
-            scores.setdefault("θ_0", []).append(
-                statistics.fmean(agent_returns(setting, None, model, episodes))
-            )
-            scores.setdefault("adversary", []).append(
-                statistics.fmean(agent_returns(setting, nature, model, episodes))
-            )
-    return {
-        label: {k: mean_se(v) for k, v in scores.items()} | {"seconds": seconds[label] / args.seeds}
-        for label, scores in rows.items()
-    }
-
-
 def main() -> None:
     """Run the comparisons and print the README's tables."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -278,65 +225,43 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=3, help="training seeds")
     parser.add_argument("--episodes", type=int, default=100, help="evaluation episodes")
     parser.add_argument("--nature-steps", type=int, default=20_000, help="PPO nature steps")
-    parser.add_argument("--agent-steps", type=int, default=30_000, help="agent steps for (b)")
-    parser.add_argument("--rounds", type=int, default=3, help="RARL rounds for (b)")
-    parser.add_argument("--only", choices=["a", "b"], help="run one part")
     parser.add_argument(
         "--settings",
         nargs="+",
         choices=sorted({name.split(",")[0] for name in SETTINGS}),
-        help="environments of part (a) to run (default: all)",
+        help="environments to run (default: all)",
     )
     args = parser.parse_args()
     if args.quick:
-        args.seeds, args.episodes, args.nature_steps, args.agent_steps, args.rounds = (
-            1,
-            2,
-            512,
-            1024,
-            2,
-        )
-    if args.only != "b":
-        print(
-            "(a) agent's return: static θ_0 | PPO nature (mean over training seeds; the"
-            " strongest seed's) | worst scripted schedule"
-        )
-        print(
-            "| setting | static θ_0 | PPO, mean of seeds | PPO, strongest seed | worst scripted |"
-            " schedules above the strongest PPO | PPO s/seed |"
-        )
-        print("|---|---|---|---|---|---|---|")
-        for name, setting in SETTINGS.items():
-            if args.settings and name.split(",")[0] not in args.settings:
-                continue
-            if args.quick:
-                setting = Setting(
-                    setting.env_id,
-                    setting.agent,
-                    lambda g=setting.grid: itertools.islice(g(), 3),
-                    setting.env_kwargs,
-                )
-            r = compare(name, setting, args)
-            label, worst, worst_se = r["worst"]
-            print(
-                f"| {name} | {r['static'][0]:.3f} ± {r['static'][1]:.3f} | "
-                f"{r['ppo'][0]:.3f} ± {r['ppo'][1]:.3f} | {r['best'][0]:.3f} ± {r['best'][1]:.3f} "
-                f"| {worst:.3f} ± {worst_se:.3f} ({label}) | {r['beaten']}/{r['schedules']} | "
-                f"{r['seconds']:.0f} |"
-            )
-    if args.only != "a":
-        print("\n(b) CartPole agent's return (PPO agents, same agent steps)")
-        print("| agent | on θ_0 | against its own PPO adversary | training s/seed |")
-        print("|---|---|---|---|")
-        for label, r in robust(args).items():
-            print(
-                f"| {label} | {r['θ_0'][0]:.1f} ± {r['θ_0'][1]:.1f} | "
-                f"{r['adversary'][0]:.1f} ± {r['adversary'][1]:.1f} | {r['seconds']:.0f} |"
-            )
+        args.seeds, args.episodes, args.nature_steps = 1, 2, 512
     print(
-        f"\nseeds={args.seeds} episodes={args.episodes} nature_steps={args.nature_steps} "
-        f"agent_steps={args.agent_steps} rounds={args.rounds}"
+        "agent's return: static θ_0 | PPO nature (mean over training seeds; the"
+        " strongest seed's) | worst scripted schedule"
     )
+    print(
+        "| setting | static θ_0 | PPO, mean of seeds | PPO, strongest seed | worst scripted |"
+        " schedules above the strongest PPO | PPO s/seed |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for name, setting in SETTINGS.items():
+        if args.settings and name.split(",")[0] not in args.settings:
+            continue
+        if args.quick:
+            setting = Setting(
+                setting.env_id,
+                setting.agent,
+                lambda g=setting.grid: itertools.islice(g(), 3),
+                setting.env_kwargs,
+            )
+        r = compare(name, setting, args)
+        label, worst, worst_se = r["worst"]
+        print(
+            f"| {name} | {r['static'][0]:.3f} ± {r['static'][1]:.3f} | "
+            f"{r['ppo'][0]:.3f} ± {r['ppo'][1]:.3f} | {r['best'][0]:.3f} ± {r['best'][1]:.3f} "
+            f"| {worst:.3f} ± {worst_se:.3f} ({label}) | {r['beaten']}/{r['schedules']} | "
+            f"{r['seconds']:.0f} |"
+        )
+    print(f"\nseeds={args.seeds} episodes={args.episodes} nature_steps={args.nature_steps}")
 
 
 if __name__ == "__main__":

@@ -22,6 +22,14 @@ ends; ``--resume`` skips saved ones)::
 
     python benchmarks/bench_robust.py --out /tmp/bench_robust --workers 2
     python benchmarks/bench_robust.py --quick --out /tmp/bench_robust_quick   # a smoke run
+    python benchmarks/bench_robust.py --tabular --out /tmp/x --workers 2  # the calibration
+    python benchmarks/bench_robust.py --throughput 16384 --out /tmp/x       # n_envs speed
+
+The calibration (``--tabular``): on FrozenLake, where nature's exact best response to a fixed
+agent is computable (:func:`ns_pz.agents.exact.nature_best_response`), each way of training a
+PPO adversary is scored by the fraction of the exact achievable harm it finds. The learned
+nature moves the whole slip vector, the exact one only along the line of step 0.1, so a
+fraction above 1 is possible.
 """
 
 from __future__ import annotations
@@ -235,6 +243,147 @@ def table(records: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
+LAKE = "ns_pz/FrozenLake-v0"
+LAKE_HORIZON = 100
+WAYS = {
+    "PPO, 4,096 steps": {"steps": 4096},
+    "PPO, 16,384 steps, 8 envs": {"steps": 16384, "n_envs": 8},
+    "best of 3 PPO runs, 4,096 steps each": {"steps": 4096, "restarts": 3},
+}
+"""Ways of training an adversary, scored against nature's exact best response."""
+
+
+def lake_setting() -> tuple[dict[str, Any], Any]:
+    """FrozenLake without slip, nature moving the slip vector by 0.1 a step and 0.6 in all."""
+    from ns_pz.nature import NatureConstraints
+
+    kwargs = {
+        "params": {"slip": (1.0, 0.0, 0.0)},
+        "constraints": NatureConstraints(lipschitz=0.1, budget=0.6),
+        "max_episode_steps": LAKE_HORIZON,
+    }
+    return kwargs, NatureConstraints(lipschitz=0.1, budget=0.6)
+
+
+def lake_agent_and_values() -> tuple[Any, float, float]:
+    """The θ_0-optimal agent (a fixed time-indexed policy) and its exact values.
+
+    Its value when nothing changes, and under nature's exact best response on the slip line
+    of step 0.1 (:func:`ns_pz.agents.exact.nature_best_response`), against this very policy.
+    """
+    from ns_pz.agents.exact import (
+        PolicyAgent,
+        nature_best_response,
+        oracle_solution,
+        slip_line_grid,
+        start_value,
+    )
+    from ns_pz.envs.registry import make_gym
+
+    kwargs, limits = lake_setting()
+    env = make_gym(LAKE, **kwargs)
+    process = env.unwrapped.process
+    theta0 = process.base_theta0
+    solution = oracle_solution(process.family, [theta0] * LAKE_HORIZON, 1.0)
+    static = start_value(process.family, solution.values)
+    grid = slip_line_grid(theta0, 0.1, limits)
+    response = nature_best_response(env, solution.policy, grid, LAKE_HORIZON)
+    agent = PolicyAgent(solution.policy, name="θ_0-optimal")
+    return agent, float(static), float(response.value)
+
+
+def tabular_job(way: str, seed: int, episodes: int) -> dict[str, Any]:
+    """Train one adversary the way ``way`` says against the θ_0-optimal agent; its harm."""
+    import torch
+
+    torch.set_num_threads(1)
+    from ns_pz.learning import TrainArgs, episode_returns, train_adversary
+    from ns_pz.nature import PolicyNature
+    from ns_pz.seats import single_agent
+
+    options = dict(WAYS[way])
+    kwargs, _ = lake_setting()
+    steps = options.pop("steps")
+    args = TrainArgs(
+        total_timesteps=steps,
+        hyperparameters={
+            "n_steps": 256 // options.get("n_envs", 1),
+            "batch_size": 64,
+            "learning_rate": 3e-3,
+        },
+    )
+    agent, _, _ = lake_agent_and_values()
+    started = time.perf_counter()
+    model = train_adversary(
+        LAKE, agent, args=args, seed=seed, nature_observes_state=True, **options, **kwargs
+    )
+    seconds = time.perf_counter() - started
+    env = single_agent(
+        LAKE, "agent", {"nature": PolicyNature(model, observes_state=True)}, **kwargs
+    )
+    returns = episode_returns(env, agent, range(50_000, 50_000 + episodes))
+    return {"way": way, "seed": seed, "value": float(np.mean(returns)), "seconds": seconds}
+
+
+def tabular(seeds: int, episodes: int, workers: int) -> str:
+    """The fraction of nature's exact achievable harm each way of training finds."""
+    from ns_pz.learning import aggregate_runs
+
+    _, static, best = lake_agent_and_values()
+    with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+        futures = [pool.submit(tabular_job, w, s, episodes) for w in WAYS for s in range(seeds)]
+        records = [f.result() for f in futures]
+    lines = [
+        f"FrozenLake, the θ_0-optimal agent at none: exact value {static:.3f} when nothing "
+        f"changes, {best:.4f} under nature's exact best response (slip line, step 0.1)",
+        "",
+        "| way of training | seeds | agent's return | fraction of the exact harm | "
+        "training seconds |",
+        "|---|---|---|---|---|",
+    ]
+    for way in WAYS:
+        runs = [r for r in records if r["way"] == way]
+        value = aggregate_runs([r["value"] for r in runs])
+        harm = aggregate_runs([(static - r["value"]) / (static - best) for r in runs])
+        seconds = np.mean([r["seconds"] for r in runs])
+        lines.append(
+            f"| {way} | {len(runs)} | {value.value:.3f} [{value.low:.3f}, {value.high:.3f}] | "
+            f"{harm.value:.2f} [{harm.low:.2f}, {harm.high:.2f}] | {seconds:.0f} |"
+        )
+    return "\n".join(lines)
+
+
+def balance(observation: dict[str, Any]) -> int:
+    """A fixed linear controller that balances CartPole's stationary pole."""
+    s = observation["state"]
+    return int(0.1 * s[0] + 0.3 * s[1] + s[2] + 0.5 * s[3] > 0)
+
+
+def throughput(steps: int) -> str:
+    """Nature-training steps per second against a fixed controller, by number of environments.
+
+    1 env, 8 in-process and 8 in subprocesses, PPO with 2,048 steps a rollout in every case.
+    """
+    import torch
+
+    torch.set_num_threads(1)
+    from ns_pz.learning import TrainArgs, train_adversary
+
+    lines = ["| environments | steps/s | seconds |", "|---|---|---|"]
+    for n_envs, vec_env in ((1, "dummy"), (8, "dummy"), (8, "subproc")):
+        args = TrainArgs(
+            total_timesteps=steps, hyperparameters={"n_steps": 2048 // n_envs, "batch_size": 256}
+        )
+        started = time.perf_counter()
+        train_adversary(
+            CARTPOLE, balance, args=args, n_envs=n_envs, vec_env=vec_env, **env_kwargs()
+        )
+        seconds = time.perf_counter() - started
+        label = "1" if n_envs == 1 else f"{n_envs}, {vec_env}"
+        lines.append(f"| {label} | {steps / seconds:.0f} | {seconds:.1f} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> None:
     """Run the jobs (in parallel), then print the table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -244,7 +393,25 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--quick", action="store_true", help="tiny sizes: a smoke run")
     parser.add_argument("--resume", action="store_true", help="keep jobs saved in --out")
+    parser.add_argument(
+        "--tabular",
+        action="store_true",
+        help="instead: ways of training an adversary against nature's exact best response",
+    )
+    parser.add_argument("--episodes", type=int, default=100, help="--tabular's scoring episodes")
+    parser.add_argument(
+        "--throughput",
+        type=int,
+        metavar="STEPS",
+        help="instead: nature-training steps/s with 1 and 8 environments, STEPS steps each",
+    )
     args = parser.parse_args(argv)
+    if args.throughput:
+        print(throughput(args.throughput))
+        return
+    if args.tabular:
+        print(tabular(args.seeds, args.episodes, args.workers))
+        return
     budget = QUICK if args.quick else FULL
     args.out.mkdir(parents=True, exist_ok=True)
     records = []

@@ -60,7 +60,7 @@ def test_detector_benchmark_smoke_run():
 
 
 def test_adversary_benchmark_quick_run():
-    """bench_adversary.py --quick prints both tables (needs the learn extra)."""
+    """bench_adversary.py --quick prints its table (needs the learn extra)."""
     pytest.importorskip("stable_baselines3")
     bench = BENCH.parent / "bench_adversary.py"
     out = subprocess.run(
@@ -68,4 +68,16 @@ def test_adversary_benchmark_quick_run():
     ).stdout
     for row in ("| FrozenLake, none |", "| FrozenLake, detailed |", "| CartPole, none |"):
         assert row in out
-    assert "| RARL |" in out and "| θ_0 only |" in out
+
+
+def test_robust_benchmark_quick_run(tmp_path):
+    """bench_robust.py --quick trains and scores one agent per method and prints the table."""
+    pytest.importorskip("stable_baselines3")
+    bench = BENCH.parent / "bench_robust.py"
+    command = [sys.executable, str(bench), "--quick", "--seeds", "1", "--workers", "2"]
+    out = subprocess.run(
+        [*command, "--out", str(tmp_path)], capture_output=True, text=True, check=True
+    ).stdout
+    for method in ("plain", "dr", "rarl", "rarl-pool"):
+        assert f"| {method} | 1 |" in out
+        assert (tmp_path / f"{method}_0.json").exists()

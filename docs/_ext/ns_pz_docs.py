@@ -32,7 +32,7 @@ from sphinx.util import logging
 
 logger = logging.getLogger(__name__)
 
-# The layers of DESIGN.md, in reading order: (title, blurb, module-name rules). A module belongs
+# The layers of the design, in reading order: (title, blurb, module-name rules). A module belongs
 # to the first layer with a rule equal to its name or a prefix of it followed by a dot.
 LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     (
@@ -64,9 +64,17 @@ LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
         ("ns_pz.views", "ns_pz.rendering", "ns_pz.vector"),
     ),
     (
-        "Learner seats",
-        "Any seat as a single-agent Gymnasium env; training with SB3.",
-        ("ns_pz.seats", "ns_pz.seat_policies", "ns_pz.learn", "ns_pz.sb3_vec", "ns_pz.rllib"),
+        "Learning",
+        "Any seat as a single-agent Gymnasium env; training with SB3; robust RL and its "
+        "evaluation.",
+        (
+            "ns_pz.seats",
+            "ns_pz.seat_policies",
+            "ns_pz.learning",
+            "ns_pz.learn",
+            "ns_pz.sb3_vec",
+            "ns_pz.rllib",
+        ),
     ),
     ("Planning", "Stationary models that search agents simulate.", ("ns_pz.planning",)),
     ("Environments", "The families and the registry (installed as ns_pz.envs).", ("ns_pz.envs",)),
