@@ -166,13 +166,43 @@ def agent_strategy(
                 f"policy has float shape {array.shape}; allowed: {sorted(float_shapes)} "
                 "(probabilities with a trailing action axis)"
             )
-        if np.any(array < -1e-9) or not np.allclose(array.sum(axis=-1), 1.0, atol=1e-6):
-            raise ValueError("policy probabilities must be >= 0 and sum to 1 over actions")
+        array = probability_rows(array, "policy", "actions")
     else:
         raise ValueError(f"policy has dtype {array.dtype}; expected integer actions or floats")
     while array.ndim < 5:
         array = array[:, :, None] if array.ndim == 3 else array[:, :, :, None]
     return np.broadcast_to(array, full)
+
+
+def probability_rows(array: np.ndarray, name: str, over: str) -> np.ndarray:
+    """``array`` in float64 with every row (last axis) on the simplex.
+
+    A row may be off by the rounding of its own dtype (float32 strategies are off by ~1e-7):
+    it is then clipped at 0 and divided by its sum, so that no row adds up to more than 1 and
+    inflates a value. A row off by more (beyond ``8 · n · eps`` of the dtype, and at least
+    1e-12) is the caller's mistake, not rounding, and is refused: renormalising it would answer
+    a question the caller did not ask.
+
+    Raises:
+        ValueError: A value is not finite, or a row is off the simplex beyond rounding.
+    """
+    count = array.shape[-1]
+    tolerance = max(8 * count * float(np.finfo(array.dtype).eps), 1e-12)
+    rows = np.array(array, dtype=np.float64)
+    if not np.all(np.isfinite(rows)):
+        raise ValueError(f"{name} holds NaN or infinite probabilities")
+    sums = rows.sum(axis=-1)
+    worst = np.unravel_index(int(np.argmax(np.abs(sums - 1.0))), sums.shape)
+    if rows.min() < -tolerance or abs(sums[worst] - 1.0) > tolerance:
+        raise ValueError(
+            f"{name} rows must be probabilities over {over} (>= 0, summing to 1): row "
+            f"{list(map(int, worst))} sums to {float(sums[worst])!r}, the smallest entry is "
+            f"{float(rows.min())!r}; allowed: off by at most {tolerance:.2g} (the rounding of "
+            f"{array.dtype}). Normalise it: p / p.sum(axis=-1, keepdims=True)"
+        )
+    np.clip(rows, 0.0, None, out=rows)
+    rows /= rows.sum(axis=-1, keepdims=True)
+    return rows
 
 
 def nature_strategy(nature: Any, horizon: int, num_states: int, grid: NatureGrid) -> np.ndarray:
@@ -203,8 +233,7 @@ def nature_strategy(nature: Any, horizon: int, num_states: int, grid: NatureGrid
                 f"nature has float shape {array.shape}; allowed: {(horizon, m, levels, m)} or "
                 f"{(horizon, num_states, m, levels, m)}"
             )
-        if np.any(array < -1e-9) or not np.allclose(array.sum(axis=-1), 1.0, atol=1e-6):
-            raise ValueError("nature probabilities must be >= 0 and sum to 1 over the grid")
+        array = probability_rows(array, "nature", "the grid")
     else:
         raise ValueError(f"nature has dtype {array.dtype}; expected grid indices or floats")
     if array.ndim == 4:

@@ -37,6 +37,9 @@ from ns_pz.agents.exact.game_value import GameSolution, solve_game
 from ns_pz.agents.exact.nature_grid import NatureGrid
 from ns_pz.agents.exact.references import oracle_solution, start_value
 
+ROUNDING = 1e-12
+"""Relative gap by which float64 rounding may put the lower bound above the upper one."""
+
 
 @dataclass(frozen=True)
 class BlindValueBounds:
@@ -44,7 +47,8 @@ class BlindValueBounds:
 
     Attributes:
         detailed: The game's value at ``detailed``.
-        lower: Best blind candidate's value against nature's best response.
+        lower: Best blind candidate's value against nature's best response (lowered to
+            :attr:`upper` when rounding alone puts it above, by at most 1e-12 relative).
         upper: ``min(detailed, smallest oracle value over the schedules tried)``.
         best_candidate: Name of the candidate reaching :attr:`lower`.
         schedule: Grid indices of the schedule reaching the smallest oracle value.
@@ -144,10 +148,13 @@ def blind_value_bounds(
                     env, oracle_policy, grid, horizon, gamma=gamma, max_nodes=max_nodes
                 ).indices
     best = max(values, key=values.__getitem__)
+    lower, upper = values[best], min(game.value, float(smallest))
+    if upper < lower <= upper + ROUNDING * max(1.0, abs(upper)):
+        lower = upper  # the same sums in another order: rounding must not invert the bracket
     return BlindValueBounds(
         detailed=game.value,
-        lower=values[best],
-        upper=min(game.value, float(smallest)),
+        lower=lower,
+        upper=upper,
         best_candidate=best,
         schedule=best_schedule,
         candidate_values=values,
@@ -172,7 +179,7 @@ def averaged_equilibrium(env: Any, grid: NatureGrid, game: GameSolution) -> np.n
     mass[list(family.start_states), grid.start, grid.full_budget] = 1.0 / len(family.start_states)
     blind = np.empty((horizon, num_states, num_actions))
     for t in range(horizon):
-        agent, nature = game.agent[t].astype(np.float64), game.nature[t].astype(np.float64)
+        agent, nature = game.agent[t], game.nature[t]
         weight = mass.reshape(num_states, -1)
         total = weight.sum(axis=1, keepdims=True)
         mixed = agent.reshape(num_states, -1, num_actions)
@@ -199,4 +206,4 @@ def averaged_equilibrium(env: Any, grid: NatureGrid, game: GameSolution) -> np.n
             )
             following += np.bincount(target.ravel(), weights=step.ravel(), minlength=following.size)
         mass = following.reshape(num_states, m, levels)
-    return blind
+    return blind / blind.sum(axis=2, keepdims=True)  # exact rows: averaging rounds
