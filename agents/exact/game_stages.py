@@ -168,7 +168,13 @@ def agent_strategy(
             )
         array = probability_rows(array, "policy", "actions")
     else:
-        raise ValueError(f"policy has dtype {array.dtype}; expected integer actions or floats")
+        raise TypeError(
+            f"policy={policy!r:.80} is not an array of actions or probabilities (dtype "
+            f"{array.dtype}); pass [H, S] or [H, S, m] integer actions or probabilities with a "
+            "trailing action axis. exploitability() also takes a search agent such as "
+            "MCTS(iterations=100) directly; elsewhere convert one with "
+            "search_policy_on_grid(env, grid, horizon, agent.search, rng)"
+        )
     while array.ndim < 5:
         array = array[:, :, None] if array.ndim == 3 else array[:, :, :, None]
     return np.broadcast_to(array, full)
