@@ -32,6 +32,8 @@ from ns_pz.agents.exact.induction import check_gamma
 from ns_pz.agents.exact.nature_grid import NatureGrid
 from ns_pz.agents.exact.references import outcome_tables
 from ns_pz.agents.exact.schedule import check_horizon
+from ns_pz.agents.exact.solve_progress import SolveProgress
+from ns_pz.agents.exact.solve_size import SolveSize
 
 from ns_pz.planning import TabularOutcomes
 
@@ -118,6 +120,7 @@ def stage_induction(
     horizon: int,
     gamma: float,
     rule: StageRule,
+    progress: SolveProgress | None = None,
 ) -> np.ndarray:
     """Backward induction over the stages: ``values[t] = rule(t, G_t, allowed)``, ``V_H = 0``.
 
@@ -130,7 +133,60 @@ def stage_induction(
     for t in range(horizon - 1, -1, -1):
         payoffs, allowed = stage_payoffs(tables, values[t + 1], next_budget, gamma)
         values[t] = rule(t, payoffs, allowed)
+        del payoffs, allowed  # before the next step's are built (the size estimate counts one)
+        if progress is not None:
+            progress.step(horizon - t)
     return values
+
+
+def start_solve(
+    what: str,
+    tables: Sequence[TabularOutcomes],
+    grid: NatureGrid,
+    horizon: int,
+    *,
+    held: int,
+    copies: int,
+    max_bytes: float,
+    progress: bool,
+    extra_bytes: int = 0,
+) -> SolveProgress | None:
+    """Estimate a solve's size, refuse it beyond ``max_bytes``, and start its progress line.
+
+    Args:
+        what: The solver, for messages.
+        tables: The grid's outcome tables.
+        grid: Nature's action set.
+        horizon: ``H``.
+        held: Numbers the solver keeps per stage besides values and choices.
+        copies: Payoff-sized temporaries of one step.
+        max_bytes: The caller's memory limit.
+        progress: Whether to print the progress line on stderr.
+        extra_bytes: Memory beyond the stages.
+
+    Returns:
+        The progress line, or ``None`` when not asked for.
+
+    Raises:
+        TypeError: ``progress`` is not a bool, or ``max_bytes`` not a number.
+        ValueError: The estimate passes ``max_bytes`` (the message holds it).
+    """
+    num_states, num_actions, _ = tables[0].probs.shape
+    size = SolveSize(
+        what,
+        horizon,
+        num_states,
+        num_actions,
+        grid.size,
+        grid.budget_levels,
+        held,
+        copies,
+        extra_bytes,
+    )
+    size.check(max_bytes)
+    if not isinstance(progress, bool):
+        raise TypeError(f"progress={progress!r} must be a bool")
+    return SolveProgress(what, horizon, size.describe()) if progress else None
 
 
 def agent_strategy(

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from ns_pz.agents.exact.robust import equal_split
+from ns_pz.agents.exact.solve_size import DEFAULT_MAX_POINTS, check_max_points
 
 from ns_pz.nature.constraints import NatureConstraints
 from ns_pz.params import SIMPLEX, Params
@@ -155,6 +156,7 @@ def nature_grid(
     constraints: NatureConstraints | None = None,
     *,
     budget_unit: float | None = None,
+    max_points: int = DEFAULT_MAX_POINTS,
 ) -> NatureGrid:
     """A grid from a list of θ, with ns_pz's constraints as adjacency and resource.
 
@@ -165,6 +167,9 @@ def nature_grid(
         budget_unit: Size of one budget unit. Default: the smallest positive move cost. Every
             move's cost must be a whole multiple of it; the budget is rounded down to whole
             units (no sequence of moves can spend the remainder, so the grid stays exact).
+        max_points: Refuse a grid of more points, before measuring its ``m²`` moves (default
+            1000: about 8 s of measuring; any solve on such a grid needs ``m²`` payoffs per
+            state, action and budget level at every step).
 
     Raises:
         TypeError: A θ is not a Params of ``start``'s class.
@@ -172,6 +177,7 @@ def nature_grid(
             normalised.
     """
     points = list(dict.fromkeys(thetas))
+    check_max_points(len(points) + (start not in points), max_points)
     for theta in points:
         if type(theta) is not type(start):
             raise TypeError(f"thetas holds {theta!r}; every θ must be a {type(start).__name__}")
@@ -228,6 +234,7 @@ def slip_line_grid(
     field: str = "slip",
     low: float = 0.0,
     high: float = 1.0,
+    max_points: int = DEFAULT_MAX_POINTS,
 ) -> NatureGrid:
     """Points on the slip line ``[p, (1-p)/(n-1), ...]`` every ``step`` from ``p_0``.
 
@@ -243,6 +250,7 @@ def slip_line_grid(
         field: The probability-vector parameter nature moves.
         low: Smallest intended-move probability allowed.
         high: Largest.
+        max_points: Refuse a grid of more points before building it (as :func:`nature_grid`).
 
     Raises:
         TypeError: ``field`` is not a probability vector of ``theta0``.
@@ -264,13 +272,14 @@ def slip_line_grid(
         raise ValueError(f"p_0={p0!r} lies outside [low, high] = [{low!r}, {high!r}]")
     down = math.floor((p0 - low) / step + 1e-9)
     up = math.floor((high - p0) / step + 1e-9)
+    check_max_points(down + up + 1, max_points)
     ps = [min(max(p0 + k * step, 0.0), 1.0) for k in range(-down, up + 1)]
     thetas = [
         theta0 if k == 0 else theta0.replace(**{field: equal_split(p, len(vector))})
         for k, p in zip(range(-down, up + 1), ps, strict=True)
     ]
     unit = step if constraints is not None and constraints.budget is not None else None
-    return nature_grid(thetas, theta0, constraints, budget_unit=unit)
+    return nature_grid(thetas, theta0, constraints, budget_unit=unit, max_points=max_points)
 
 
 def _inf_if_none(value: float | None) -> float:
