@@ -79,3 +79,28 @@ def test_rows_within_rounding_are_renormalised_so_values_are_never_inflated():
     assert got == pytest.approx(nature_best_response(family, exact, grid, horizon).value, abs=1e-6)
     with pytest.raises(ValueError, match="NaN or infinite"):
         nature_best_response(family, np.full_like(exact, np.nan), grid, horizon)
+
+
+class InflatedFamily:
+    """FrozenLake 2x2 whose outcome rows sum to 1 + ``excess``: a family's own bug."""
+
+    params_cls = FrozenLakeParams
+    start_states = (0,)
+
+    def __init__(self, excess: float) -> None:
+        self.lake, self.excess = FrozenLakeFamily(desc=("SF", "HG")), excess
+
+    def outcomes(self, theta):
+        """The lake's table with the first outcome of (0, 0) raised."""
+        table = self.lake.outcomes(theta)
+        probs = table.probs.copy()
+        probs[0, 0, 0] += self.excess
+        return type(table)(probs, table.next_states, table.rewards, table.terminals)
+
+
+def test_an_outcome_table_off_the_simplex_is_refused_not_solved():
+    """A family whose rows sum to 1 + 1e-6 made every value larger, silently."""
+    _, grid, horizon = tiny()
+    with pytest.raises(ValueError, match=r"probs\[0, 0\] = .* is not a distribution"):
+        solve_game(InflatedFamily(1e-6), grid, horizon)
+    solve_game(InflatedFamily(1e-12), grid, horizon)  # rounding passes

@@ -69,7 +69,32 @@ def grid_tables(env: Any, grid: NatureGrid) -> list[TabularOutcomes]:
             f"grid holds {type(grid.thetas[0]).__name__}; {family!r} takes "
             f"{family.params_cls.__name__}"
         )
-    return outcome_tables(family, grid.thetas)
+    tables = outcome_tables(family, grid.thetas)
+    for theta, table in zip(grid.thetas, tables, strict=True):
+        _check_outcome_rows(family, theta, table)
+    return tables
+
+
+TABLE_TOLERANCE = 1e-9
+"""How far an outcome table's row may be off the simplex (a family's rounding, no more)."""
+
+
+def _check_outcome_rows(family: Any, theta: Any, table: TabularOutcomes) -> None:
+    """Refuse a table whose (state, action) rows are not distributions: it would inflate values.
+
+    A table is the family's model, not a strategy: it is never renormalised here.
+    """
+    probs = np.asarray(table.probs, dtype=np.float64)
+    off = np.abs(probs.sum(axis=2) - 1.0)
+    low = probs.min(axis=2)
+    bad = (off > TABLE_TOLERANCE) | (low < -TABLE_TOLERANCE) | ~np.isfinite(off)
+    if np.any(bad):
+        s, a = (int(k) for k in np.argwhere(bad)[0])
+        raise ValueError(
+            f"{family!r}.outcomes({theta!r}).probs[{s}, {a}] = {probs[s, a].tolist()} is not a "
+            f"distribution (sums to {float(probs[s, a].sum())!r}); every row must be >= 0 and "
+            f"sum to 1 within {TABLE_TOLERANCE}"
+        )
 
 
 def check_game(horizon: object, gamma: object) -> tuple[int, float]:
