@@ -149,7 +149,7 @@ def solve_game(
         max_bytes=max_bytes,
         progress=progress,
     )
-    # the strategies are the big arrays (CliffWalking, H = 200: ~220 MB for nature's)
+    # the strategies are the big arrays: nature's holds H·S·m·levels·m float64 numbers
     agent = np.empty((horizon, num_states, m, levels, num_actions))
     nature = np.empty((horizon, num_states, m, levels, m))
     linear_programs = 0
