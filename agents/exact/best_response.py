@@ -37,9 +37,11 @@ from ns_pz.agents.exact.game_stages import (
     grid_tables,
     nature_strategy,
     stage_induction,
+    start_solve,
     start_value,
 )
 from ns_pz.agents.exact.nature_grid import NatureGrid
+from ns_pz.agents.exact.solve_size import DEFAULT_MAX_BYTES
 
 from ns_pz.params import Params
 
@@ -106,6 +108,8 @@ def nature_best_response(
     gamma: float = 1.0,
     sees_state: bool = True,
     max_nodes: int = 20_000,
+    max_bytes: float = DEFAULT_MAX_BYTES,
+    progress: bool = False,
 ) -> NatureResponse | OpenLoopResponse:
     """Nature's optimal response to a fixed agent policy, and the agent's value under it.
 
@@ -120,16 +124,39 @@ def nature_best_response(
         sees_state: ``True``: closed loop, nature sees the state (exact DP, a
             :class:`NatureResponse`); ``False``: open loop (:func:`open_loop_best_response`).
         max_nodes: Tree width for the open-loop search.
+        max_bytes: Refuse the solve when its estimated peak memory passes this
+            (:mod:`ns_pz.agents.exact.solve_size`; default 4 GiB).
+        progress: Print the size estimate, then the steps done and an ETA, on stderr.
 
     Raises:
         TypeError / ValueError: The env is not tabular, the grid is of another θ class, the
-            policy has the wrong shape, or ``horizon``/``gamma`` are invalid.
+            policy has the wrong shape, ``horizon``/``gamma`` are invalid, or the solve is
+            estimated beyond ``max_bytes``.
     """
     if not sees_state:
-        return open_loop_best_response(env, policy, grid, horizon, gamma=gamma, max_nodes=max_nodes)
+        return open_loop_best_response(
+            env,
+            policy,
+            grid,
+            horizon,
+            gamma=gamma,
+            max_nodes=max_nodes,
+            max_bytes=max_bytes,
+            progress=progress,
+        )
     horizon, gamma = check_game(horizon, gamma)
     tables = grid_tables(env, grid)
     num_states, num_actions, _ = tables[0].probs.shape
+    line = start_solve(
+        "nature_best_response",
+        tables,
+        grid,
+        horizon,
+        held=num_actions,
+        copies=3,
+        max_bytes=max_bytes,
+        progress=progress,
+    )
     strategy = agent_strategy(policy, horizon, num_states, num_actions, grid)
     choice = np.empty((horizon, num_states, grid.size, grid.budget_levels), np.int64)
 
@@ -140,12 +167,19 @@ def nature_best_response(
         choice[t] = expected.argmin(axis=2).transpose(2, 0, 1)
         return expected.min(axis=2).transpose(2, 0, 1)
 
-    values = stage_induction(tables, grid, horizon, gamma, minimise)
+    values = stage_induction(tables, grid, horizon, gamma, minimise, line)
     return NatureResponse(values, choice, start_value(family_of(env), values, grid))
 
 
 def agent_best_response(
-    env: Any, nature: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0
+    env: Any,
+    nature: Any,
+    grid: NatureGrid,
+    horizon: int,
+    *,
+    gamma: float = 1.0,
+    max_bytes: float = DEFAULT_MAX_BYTES,
+    progress: bool = False,
 ) -> AgentResponse:
     """The agent's optimal policy (at ``detailed``) against a fixed nature strategy.
 
@@ -156,10 +190,22 @@ def agent_best_response(
         grid: Nature's action set.
         horizon: ``H``.
         gamma: Discount in ``[0, 1]``.
+        max_bytes: Memory limit of the solve's estimate (as :func:`nature_best_response`).
+        progress: Print the size estimate and the steps done on stderr.
     """
     horizon, gamma = check_game(horizon, gamma)
     tables = grid_tables(env, grid)
     num_states = tables[0].probs.shape[0]
+    line = start_solve(
+        "agent_best_response",
+        tables,
+        grid,
+        horizon,
+        held=grid.size,
+        copies=3,
+        max_bytes=max_bytes,
+        progress=progress,
+    )
     weights = nature_strategy(nature, horizon, num_states, grid)
     policy = np.empty((horizon, num_states, grid.size, grid.budget_levels), np.int64)
 
@@ -168,24 +214,45 @@ def agent_best_response(
         policy[t] = q.argmax(axis=3)
         return q.max(axis=3)
 
-    values = stage_induction(tables, grid, horizon, gamma, maximise)
+    values = stage_induction(tables, grid, horizon, gamma, maximise, line)
     return AgentResponse(values, policy, start_value(family_of(env), values, grid))
 
 
 def play_values(
-    env: Any, policy: Any, nature: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0
+    env: Any,
+    policy: Any,
+    nature: Any,
+    grid: NatureGrid,
+    horizon: int,
+    *,
+    gamma: float = 1.0,
+    max_bytes: float = DEFAULT_MAX_BYTES,
+    progress: bool = False,
 ) -> np.ndarray:
-    """``[H + 1, S, m, levels]``: exact values of an agent strategy against a nature strategy."""
+    """``[H + 1, S, m, levels]``: exact values of an agent strategy against a nature strategy.
+
+    ``max_bytes`` and ``progress`` are as in :func:`nature_best_response`.
+    """
     horizon, gamma = check_game(horizon, gamma)
     tables = grid_tables(env, grid)
     num_states, num_actions, _ = tables[0].probs.shape
+    line = start_solve(
+        "play_values",
+        tables,
+        grid,
+        horizon,
+        held=num_actions + grid.size,
+        copies=3,
+        max_bytes=max_bytes,
+        progress=progress,
+    )
     strategy = agent_strategy(policy, horizon, num_states, num_actions, grid)
     weights = nature_strategy(nature, horizon, num_states, grid)
 
     def expect(t: int, payoffs: np.ndarray, allowed: np.ndarray) -> np.ndarray:
         return np.einsum("ibjsa,sibj,siba->sib", payoffs, weights[t], strategy[t])
 
-    return stage_induction(tables, grid, horizon, gamma, expect)
+    return stage_induction(tables, grid, horizon, gamma, expect, line)
 
 
 def open_loop_best_response(
@@ -196,20 +263,44 @@ def open_loop_best_response(
     *,
     gamma: float = 1.0,
     max_nodes: int = 20_000,
+    max_bytes: float = DEFAULT_MAX_BYTES,
+    progress: bool = False,
 ) -> OpenLoopResponse:
     """The best schedule fixed in advance against a fixed agent (module docstring).
+
+    ``max_bytes`` and ``progress`` are as in :func:`nature_best_response`; the estimate adds
+    the search's frontier (up to ``max_nodes`` times nature's most moves from a stage, each
+    schedule with a state distribution and a path).
 
     Raises:
         ValueError: ``max_nodes < 1`` (and the errors of :func:`nature_best_response`).
     """
     if isinstance(max_nodes, bool) or not isinstance(max_nodes, int) or max_nodes < 1:
         raise ValueError(f"max_nodes={max_nodes!r} must be an int >= 1")
-    closed = nature_best_response(env, policy, grid, horizon, gamma=gamma)
-    assert isinstance(closed, NatureResponse)  # sees_state=True returns one
     horizon, gamma = check_game(horizon, gamma)
     tables = grid_tables(env, grid)
-    family = family_of(env)
     num_states, num_actions, _ = tables[0].probs.shape
+    # the frontier before pruning: each kept schedule times nature's moves from it
+    moves = int((grid.next_budget() >= 0).sum(axis=2).max())
+    nodes_at_most = min(max_nodes * moves, moves**horizon)
+    chunk = 3 * 2048 * tables[0].probs.size  # the per-chunk outcome weights
+    frontier = 8 * (nodes_at_most * (3 * num_states + horizon + 8) + chunk)
+    line = start_solve(
+        "open_loop_best_response",
+        tables,
+        grid,
+        horizon,
+        held=num_actions,
+        copies=3,
+        max_bytes=max_bytes,
+        progress=progress,
+        extra_bytes=frontier,
+    )
+    closed = nature_best_response(
+        env, policy, grid, horizon, gamma=gamma, max_bytes=max_bytes - frontier
+    )
+    assert isinstance(closed, NatureResponse)  # sees_state=True returns one
+    family = family_of(env)
     strategy = agent_strategy(policy, horizon, num_states, num_actions, grid)
     next_budget = grid.next_budget()
     # the frontier: one row per schedule prefix
@@ -242,6 +333,8 @@ def open_loop_best_response(
         mass = new_mass
         discount *= gamma
         nodes += here.size
+        if line is not None:
+            line.step(t + 1)
         if here.size > max_nodes and t < horizon - 1:
             exact = False
             to_go = np.einsum("ns,sn->n", mass, closed.values[t + 1][:, here, left])

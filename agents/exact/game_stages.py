@@ -32,6 +32,8 @@ from ns_pz.agents.exact.induction import check_gamma
 from ns_pz.agents.exact.nature_grid import NatureGrid
 from ns_pz.agents.exact.references import outcome_tables
 from ns_pz.agents.exact.schedule import check_horizon
+from ns_pz.agents.exact.solve_progress import SolveProgress
+from ns_pz.agents.exact.solve_size import SolveSize
 
 from ns_pz.planning import TabularOutcomes
 
@@ -67,7 +69,32 @@ def grid_tables(env: Any, grid: NatureGrid) -> list[TabularOutcomes]:
             f"grid holds {type(grid.thetas[0]).__name__}; {family!r} takes "
             f"{family.params_cls.__name__}"
         )
-    return outcome_tables(family, grid.thetas)
+    tables = outcome_tables(family, grid.thetas)
+    for theta, table in zip(grid.thetas, tables, strict=True):
+        _check_outcome_rows(family, theta, table)
+    return tables
+
+
+TABLE_TOLERANCE = 1e-9
+"""How far an outcome table's row may be off the simplex (a family's rounding, no more)."""
+
+
+def _check_outcome_rows(family: Any, theta: Any, table: TabularOutcomes) -> None:
+    """Refuse a table whose (state, action) rows are not distributions: it would inflate values.
+
+    A table is the family's model, not a strategy: it is never renormalised here.
+    """
+    probs = np.asarray(table.probs, dtype=np.float64)
+    off = np.abs(probs.sum(axis=2) - 1.0)
+    low = probs.min(axis=2)
+    bad = (off > TABLE_TOLERANCE) | (low < -TABLE_TOLERANCE) | ~np.isfinite(off)
+    if np.any(bad):
+        s, a = (int(k) for k in np.argwhere(bad)[0])
+        raise ValueError(
+            f"{family!r}.outcomes({theta!r}).probs[{s}, {a}] = {probs[s, a].tolist()} is not a "
+            f"distribution (sums to {float(probs[s, a].sum())!r}); every row must be >= 0 and "
+            f"sum to 1 within {TABLE_TOLERANCE}"
+        )
 
 
 def check_game(horizon: object, gamma: object) -> tuple[int, float]:
@@ -118,6 +145,7 @@ def stage_induction(
     horizon: int,
     gamma: float,
     rule: StageRule,
+    progress: SolveProgress | None = None,
 ) -> np.ndarray:
     """Backward induction over the stages: ``values[t] = rule(t, G_t, allowed)``, ``V_H = 0``.
 
@@ -130,7 +158,60 @@ def stage_induction(
     for t in range(horizon - 1, -1, -1):
         payoffs, allowed = stage_payoffs(tables, values[t + 1], next_budget, gamma)
         values[t] = rule(t, payoffs, allowed)
+        del payoffs, allowed  # before the next step's are built (the size estimate counts one)
+        if progress is not None:
+            progress.step(horizon - t)
     return values
+
+
+def start_solve(
+    what: str,
+    tables: Sequence[TabularOutcomes],
+    grid: NatureGrid,
+    horizon: int,
+    *,
+    held: int,
+    copies: int,
+    max_bytes: float,
+    progress: bool,
+    extra_bytes: int = 0,
+) -> SolveProgress | None:
+    """Estimate a solve's size, refuse it beyond ``max_bytes``, and start its progress line.
+
+    Args:
+        what: The solver, for messages.
+        tables: The grid's outcome tables.
+        grid: Nature's action set.
+        horizon: ``H``.
+        held: Numbers the solver keeps per stage besides values and choices.
+        copies: Payoff-sized temporaries of one step.
+        max_bytes: The caller's memory limit.
+        progress: Whether to print the progress line on stderr.
+        extra_bytes: Memory beyond the stages.
+
+    Returns:
+        The progress line, or ``None`` when not asked for.
+
+    Raises:
+        TypeError: ``progress`` is not a bool, or ``max_bytes`` not a number.
+        ValueError: The estimate passes ``max_bytes`` (the message holds it).
+    """
+    num_states, num_actions, _ = tables[0].probs.shape
+    size = SolveSize(
+        what,
+        horizon,
+        num_states,
+        num_actions,
+        grid.size,
+        grid.budget_levels,
+        held,
+        copies,
+        extra_bytes,
+    )
+    size.check(max_bytes)
+    if not isinstance(progress, bool):
+        raise TypeError(f"progress={progress!r} must be a bool")
+    return SolveProgress(what, horizon, size.describe()) if progress else None
 
 
 def agent_strategy(
@@ -166,13 +247,49 @@ def agent_strategy(
                 f"policy has float shape {array.shape}; allowed: {sorted(float_shapes)} "
                 "(probabilities with a trailing action axis)"
             )
-        if np.any(array < -1e-9) or not np.allclose(array.sum(axis=-1), 1.0, atol=1e-6):
-            raise ValueError("policy probabilities must be >= 0 and sum to 1 over actions")
+        array = probability_rows(array, "policy", "actions")
     else:
-        raise ValueError(f"policy has dtype {array.dtype}; expected integer actions or floats")
+        raise TypeError(
+            f"policy={policy!r:.80} is not an array of actions or probabilities (dtype "
+            f"{array.dtype}); pass [H, S] or [H, S, m] integer actions or probabilities with a "
+            "trailing action axis. exploitability() also takes a search agent such as "
+            "MCTS(iterations=100) directly; elsewhere convert one with "
+            "search_policy_on_grid(env, grid, horizon, agent.search, rng)"
+        )
     while array.ndim < 5:
         array = array[:, :, None] if array.ndim == 3 else array[:, :, :, None]
     return np.broadcast_to(array, full)
+
+
+def probability_rows(array: np.ndarray, name: str, over: str) -> np.ndarray:
+    """``array`` in float64 with every row (last axis) on the simplex.
+
+    A row may be off by the rounding of its own dtype (float32 strategies are off by ~1e-7):
+    it is then clipped at 0 and divided by its sum, so that no row adds up to more than 1 and
+    inflates a value. A row off by more (beyond ``8 · n · eps`` of the dtype, and at least
+    1e-12) is the caller's mistake, not rounding, and is refused: renormalising it would answer
+    a question the caller did not ask.
+
+    Raises:
+        ValueError: A value is not finite, or a row is off the simplex beyond rounding.
+    """
+    count = array.shape[-1]
+    tolerance = max(8 * count * float(np.finfo(array.dtype).eps), 1e-12)
+    rows = np.array(array, dtype=np.float64)
+    if not np.all(np.isfinite(rows)):
+        raise ValueError(f"{name} holds NaN or infinite probabilities")
+    sums = rows.sum(axis=-1)
+    worst = np.unravel_index(int(np.argmax(np.abs(sums - 1.0))), sums.shape)
+    if rows.min() < -tolerance or abs(sums[worst] - 1.0) > tolerance:
+        raise ValueError(
+            f"{name} rows must be probabilities over {over} (>= 0, summing to 1): row "
+            f"{list(map(int, worst))} sums to {float(sums[worst])!r}, the smallest entry is "
+            f"{float(rows.min())!r}; allowed: off by at most {tolerance:.2g} (the rounding of "
+            f"{array.dtype}). Normalise it: p / p.sum(axis=-1, keepdims=True)"
+        )
+    np.clip(rows, 0.0, None, out=rows)
+    rows /= rows.sum(axis=-1, keepdims=True)
+    return rows
 
 
 def nature_strategy(nature: Any, horizon: int, num_states: int, grid: NatureGrid) -> np.ndarray:
@@ -203,8 +320,7 @@ def nature_strategy(nature: Any, horizon: int, num_states: int, grid: NatureGrid
                 f"nature has float shape {array.shape}; allowed: {(horizon, m, levels, m)} or "
                 f"{(horizon, num_states, m, levels, m)}"
             )
-        if np.any(array < -1e-9) or not np.allclose(array.sum(axis=-1), 1.0, atol=1e-6):
-            raise ValueError("nature probabilities must be >= 0 and sum to 1 over the grid")
+        array = probability_rows(array, "nature", "the grid")
     else:
         raise ValueError(f"nature has dtype {array.dtype}; expected grid indices or floats")
     if array.ndim == 4:

@@ -38,10 +38,12 @@ from ns_pz.agents.exact.game_stages import (
     family_of,
     grid_tables,
     stage_induction,
+    start_solve,
     start_value,
 )
 from ns_pz.agents.exact.matrix_game import solve_matrix_games
 from ns_pz.agents.exact.nature_grid import NatureGrid
+from ns_pz.agents.exact.solve_size import DEFAULT_MAX_BYTES
 
 
 @dataclass(frozen=True)
@@ -50,9 +52,10 @@ class GameSolution:
 
     Attributes:
         values: ``[H + 1, S, m, levels]`` stage values; ``values[H]`` is zero.
-        agent: ``[H, S, m, levels, A]`` the agent's equilibrium strategy (float32
-            probabilities).
-        nature: ``[H, S, m, levels, m]`` nature's equilibrium strategy (float32).
+        agent: ``[H, S, m, levels, A]`` the agent's equilibrium strategy (float64
+            probabilities, as the LPs returned them: rounding them to float32 made the
+            equilibrium's exploitability ~1e-8 instead of 0).
+        nature: ``[H, S, m, levels, m]`` nature's equilibrium strategy (float64).
         value: The game's value at reset (start states, θ_{-1}, full budget).
         linear_programs: Stages that needed an LP (the others had a pure saddle point).
         stages: All stages solved.
@@ -108,7 +111,15 @@ def _same_grid(one: NatureGrid, other: NatureGrid) -> bool:
     )
 
 
-def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) -> GameSolution:
+def solve_game(
+    env: Any,
+    grid: NatureGrid,
+    horizon: int,
+    *,
+    gamma: float = 1.0,
+    max_bytes: float = DEFAULT_MAX_BYTES,
+    progress: bool = False,
+) -> GameSolution:
     """Value and equilibrium of the game at ``detailed`` (module docstring).
 
     Args:
@@ -116,18 +127,31 @@ def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) 
         grid: Nature's action set.
         horizon: ``H``, the number of transitions.
         gamma: Discount in ``[0, 1]``.
+        max_bytes: Refuse the solve when its estimated peak memory passes this
+            (:mod:`ns_pz.agents.exact.solve_size`; default 4 GiB).
+        progress: Print the size estimate, then the steps done and an ETA, on stderr.
 
     Raises:
-        TypeError / ValueError: The env is not tabular, the grid is of another θ class, or
-            ``horizon``/``gamma`` are invalid.
+        TypeError / ValueError: The env is not tabular, the grid is of another θ class,
+            ``horizon``/``gamma`` are invalid, or the solve is estimated beyond ``max_bytes``.
     """
     horizon, gamma = check_game(horizon, gamma)
     tables = grid_tables(env, grid)
     num_states, num_actions, _ = tables[0].probs.shape
     m, levels = grid.size, grid.budget_levels
-    # float32: the strategies are the big arrays (CliffWalking, H = 200: ~110 MB for nature's)
-    agent = np.empty((horizon, num_states, m, levels, num_actions), np.float32)
-    nature = np.empty((horizon, num_states, m, levels, m), np.float32)
+    line = start_solve(
+        "solve_game",
+        tables,
+        grid,
+        horizon,
+        held=num_actions + m,
+        copies=6,
+        max_bytes=max_bytes,
+        progress=progress,
+    )
+    # the strategies are the big arrays: nature's holds H·S·m·levels·m float64 numbers
+    agent = np.empty((horizon, num_states, m, levels, num_actions))
+    nature = np.empty((horizon, num_states, m, levels, m))
     linear_programs = 0
 
     def play_stage(t: int, payoffs: np.ndarray, allowed: np.ndarray) -> np.ndarray:
@@ -140,7 +164,7 @@ def solve_game(env: Any, grid: NatureGrid, horizon: int, *, gamma: float = 1.0) 
         linear_programs += solved.linear_programs
         return solved.values.reshape(num_states, m, levels)
 
-    values = stage_induction(tables, grid, horizon, gamma, play_stage)
+    values = stage_induction(tables, grid, horizon, gamma, play_stage, line)
     return GameSolution(
         values=values,
         agent=agent,

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from ns_pz.agents.exact.robust import equal_split
+from ns_pz.agents.exact.solve_size import DEFAULT_MAX_POINTS, check_max_points
 
 from ns_pz.nature.constraints import NatureConstraints
 from ns_pz.params import SIMPLEX, Params
@@ -42,10 +43,10 @@ class NatureGrid:
         start: Index of θ_{-1}, the θ in force before nature's first move.
         allowed: ``[m, m]`` bool; ``allowed[i, j]``: nature may move from θ^i to θ^j in one step.
         costs: ``[m, m]`` int64; budget units a move uses. Every point needs an allowed move
-            of cost 0.
+            of cost 0; all 0 when there is no budget.
         budget_levels: Number of values the budget left can take (``0 .. budget_levels - 1``
-            units); 1 when there is no budget (moves are then free).
-        budget_unit: Size of one budget unit (``inf`` when there is no budget).
+            units): 1 when there is no budget, and also for a budget of less than one unit.
+        budget_unit: Size of one budget unit; ``inf`` means there is no budget (moves are free).
     """
 
     thetas: tuple[Params, ...]
@@ -61,27 +62,23 @@ class NatureGrid:
             raise ValueError("thetas=() is empty; nature needs at least one θ")
         if len(set(self.thetas)) != m:
             raise ValueError("thetas holds a θ twice; grid points must be distinct")
+        if isinstance(self.start, bool) or not isinstance(self.start, (int, np.integer)):
+            raise TypeError(f"start={self.start!r} must be an int grid index in 0..{m - 1}")
         if not 0 <= self.start < m:
             raise ValueError(f"start={self.start!r} is outside 0..{m - 1}")
-        for name in ("allowed", "costs"):
-            if np.shape(getattr(self, name)) != (m, m):
-                raise ValueError(
-                    f"{name} has shape {np.shape(getattr(self, name))}; need ({m}, {m})"
-                )
-        if np.any(self.costs < 0):
-            raise ValueError("costs must be >= 0")
-        stuck = ~np.any(self.allowed & (self.costs == 0), axis=1)
+        object.__setattr__(self, "start", int(self.start))
+        allowed = _move_table("allowed", self.allowed, m)
+        costs = _move_table("costs", self.costs, m)
+        _check_budget(self.budget_levels, self.budget_unit, costs)
+        object.__setattr__(self, "budget_levels", int(self.budget_levels))
+        object.__setattr__(self, "budget_unit", float(self.budget_unit))
+        stuck = ~np.any(allowed & (costs == 0), axis=1)
         if np.any(stuck):
             raise ValueError(
                 f"θ^{int(np.argmax(stuck))} has no move costing nothing; nature needs a move "
                 "even with no budget left (staying put, in the game)"
             )
-        if isinstance(self.budget_levels, bool) or not isinstance(self.budget_levels, int):
-            raise TypeError(f"budget_levels={self.budget_levels!r} must be an int >= 1")
-        if self.budget_levels < 1:
-            raise ValueError(f"budget_levels={self.budget_levels!r} must be >= 1")
-        for name, dtype in (("allowed", np.bool_), ("costs", np.int64)):
-            array = np.array(getattr(self, name), dtype=dtype)  # a copy: the caller's stays
+        for name, array in (("allowed", allowed), ("costs", costs)):
             array.flags.writeable = False
             object.__setattr__(self, name, array)
 
@@ -89,6 +86,11 @@ class NatureGrid:
     def size(self) -> int:
         """Number of grid points ``m``."""
         return len(self.thetas)
+
+    @property
+    def has_budget(self) -> bool:
+        """Whether moves spend a budget (``budget_unit`` finite); ``False``: they are free."""
+        return math.isfinite(self.budget_unit)
 
     @property
     def full_budget(self) -> int:
@@ -114,7 +116,7 @@ class NatureGrid:
         levels = np.arange(self.budget_levels)[None, :, None]
         after = levels - self.costs[:, None, :]
         barred = ~self.allowed[:, None, :] | (after < 0)
-        if self.budget_levels == 1:  # no budget: moves are free
+        if not self.has_budget:  # moves are free
             after = np.zeros_like(after)
             barred = ~self.allowed[:, None, :] | np.zeros_like(barred)
         return np.where(barred, -1, after)
@@ -129,17 +131,22 @@ class NatureGrid:
         for j in indices:
             if not self.allowed[here, j]:
                 return False
-            if self.budget_levels > 1:
+            if self.has_budget:
                 left -= int(self.costs[here, j])
                 if left < 0:
                     return False
             here = j
         return True
 
+    def _budget_text(self) -> str:
+        if not self.has_budget:
+            return "none"
+        return f"{self.full_budget} units of {self.budget_unit!r}"
+
     def __repr__(self) -> str:
         return (
             f"NatureGrid(size={self.size}, start={self.thetas[self.start]!r}, "
-            f"moves={int(self.allowed.sum())}, budget_levels={self.budget_levels})"
+            f"moves={int(self.allowed.sum())}, budget={self._budget_text()})"
         )
 
 
@@ -149,6 +156,7 @@ def nature_grid(
     constraints: NatureConstraints | None = None,
     *,
     budget_unit: float | None = None,
+    max_points: int = DEFAULT_MAX_POINTS,
 ) -> NatureGrid:
     """A grid from a list of θ, with ns_pz's constraints as adjacency and resource.
 
@@ -159,6 +167,9 @@ def nature_grid(
         budget_unit: Size of one budget unit. Default: the smallest positive move cost. Every
             move's cost must be a whole multiple of it; the budget is rounded down to whole
             units (no sequence of moves can spend the remainder, so the grid stays exact).
+        max_points: Refuse a grid of more points, before measuring its ``m²`` moves (default
+            1000: about 8 s of measuring; any solve on such a grid needs ``m²`` payoffs per
+            state, action and budget level at every step).
 
     Raises:
         TypeError: A θ is not a Params of ``start``'s class.
@@ -166,6 +177,7 @@ def nature_grid(
             normalised.
     """
     points = list(dict.fromkeys(thetas))
+    check_max_points(len(points) + (start not in points), max_points)
     for theta in points:
         if type(theta) is not type(start):
             raise TypeError(f"thetas holds {theta!r}; every θ must be a {type(start).__name__}")
@@ -222,6 +234,7 @@ def slip_line_grid(
     field: str = "slip",
     low: float = 0.0,
     high: float = 1.0,
+    max_points: int = DEFAULT_MAX_POINTS,
 ) -> NatureGrid:
     """Points on the slip line ``[p, (1-p)/(n-1), ...]`` every ``step`` from ``p_0``.
 
@@ -237,6 +250,7 @@ def slip_line_grid(
         field: The probability-vector parameter nature moves.
         low: Smallest intended-move probability allowed.
         high: Largest.
+        max_points: Refuse a grid of more points before building it (as :func:`nature_grid`).
 
     Raises:
         TypeError: ``field`` is not a probability vector of ``theta0``.
@@ -258,14 +272,72 @@ def slip_line_grid(
         raise ValueError(f"p_0={p0!r} lies outside [low, high] = [{low!r}, {high!r}]")
     down = math.floor((p0 - low) / step + 1e-9)
     up = math.floor((high - p0) / step + 1e-9)
+    check_max_points(down + up + 1, max_points)
     ps = [min(max(p0 + k * step, 0.0), 1.0) for k in range(-down, up + 1)]
     thetas = [
         theta0 if k == 0 else theta0.replace(**{field: equal_split(p, len(vector))})
         for k, p in zip(range(-down, up + 1), ps, strict=True)
     ]
     unit = step if constraints is not None and constraints.budget is not None else None
-    return nature_grid(thetas, theta0, constraints, budget_unit=unit)
+    return nature_grid(thetas, theta0, constraints, budget_unit=unit, max_points=max_points)
 
 
 def _inf_if_none(value: float | None) -> float:
     return math.inf if value is None else value
+
+
+def _move_table(name: str, table: object, m: int) -> np.ndarray:
+    """``allowed`` as a bool copy or ``costs`` as an int64 copy, refusing any value a cast changes.
+
+    Raises:
+        ValueError: Wrong shape, ``allowed`` not 0/1, or a cost that is negative, NaN, infinite
+            or not a whole number (casting would silently turn 0.5 into 0 and NaN into a huge
+            negative integer).
+    """
+    array = np.asarray(table)
+    if array.shape != (m, m):
+        raise ValueError(f"{name} has shape {array.shape}; need ({m}, {m})")
+    if array.dtype == object or not (
+        np.issubdtype(array.dtype, np.number) or array.dtype == np.bool_
+    ):
+        raise TypeError(f"{name} has dtype {array.dtype}; need numbers")
+    if name == "allowed":
+        if not np.all((array == 0) | (array == 1)):
+            bad = tuple(int(k) for k in np.argwhere((array != 0) & (array != 1))[0])
+            raise ValueError(
+                f"allowed{list(bad)}={array[bad].item()!r}; allowed holds only 0/1 or bools"
+            )
+        return np.array(array, dtype=np.bool_)
+    whole = np.isfinite(array) & (array >= 0) & (array == np.floor(array))
+    if not np.all(whole):
+        bad = tuple(int(k) for k in np.argwhere(~whole)[0])
+        raise ValueError(
+            f"costs{list(bad)}={array[bad].item()!r}; costs are whole numbers of budget units >= 0"
+        )
+    if np.any(array > np.iinfo(np.int64).max):
+        raise ValueError("costs hold a value beyond int64; use a larger budget_unit")
+    return np.array(array, dtype=np.int64)
+
+
+def _check_budget(levels: object, unit: object, costs: np.ndarray) -> None:
+    """Refuse a budget description the grid cannot mean (see :class:`NatureGrid`).
+
+    Raises:
+        TypeError: ``levels`` is not an int or ``unit`` not a number.
+        ValueError: ``levels < 1``, ``unit`` NaN or not > 0, or no budget (``unit = inf``)
+            with more than one level or with a move that costs something.
+    """
+    if isinstance(levels, bool) or not isinstance(levels, (int, np.integer)):
+        raise TypeError(f"budget_levels={levels!r} must be an int >= 1")
+    if levels < 1:
+        raise ValueError(f"budget_levels={levels!r} must be >= 1")
+    if isinstance(unit, bool) or not isinstance(unit, (int, float, np.floating, np.integer)):
+        raise TypeError(f"budget_unit={unit!r} must be a number > 0 (inf: no budget)")
+    if not unit > 0:  # NaN fails too
+        raise ValueError(f"budget_unit={unit!r} must be > 0 (inf: no budget)")
+    if math.isinf(unit) and (levels != 1 or np.any(costs != 0)):
+        raise ValueError(
+            f"budget_unit=inf means no budget, so budget_levels must be 1 and costs all 0 (got "
+            f"budget_levels={levels!r}, largest cost {int(costs.max())}); give a finite "
+            "budget_unit for a budget"
+        )

@@ -36,6 +36,10 @@ from ns_pz.agents.exact.game_stages import check_game, family_of, grid_tables
 from ns_pz.agents.exact.game_value import GameSolution, solve_game
 from ns_pz.agents.exact.nature_grid import NatureGrid
 from ns_pz.agents.exact.references import oracle_solution, start_value
+from ns_pz.agents.exact.solve_size import DEFAULT_MAX_BYTES
+
+ROUNDING = 1e-12
+"""Relative gap by which float64 rounding may put the lower bound above the upper one."""
 
 
 @dataclass(frozen=True)
@@ -44,7 +48,8 @@ class BlindValueBounds:
 
     Attributes:
         detailed: The game's value at ``detailed``.
-        lower: Best blind candidate's value against nature's best response.
+        lower: Best blind candidate's value against nature's best response (lowered to
+            :attr:`upper` when rounding alone puts it above, by at most 1e-12 relative).
         upper: ``min(detailed, smallest oracle value over the schedules tried)``.
         best_candidate: Name of the candidate reaching :attr:`lower`.
         schedule: Grid indices of the schedule reaching the smallest oracle value.
@@ -74,6 +79,8 @@ def blind_value_bounds(
     game: GameSolution | None = None,
     rounds: int = 1,
     max_nodes: int = 500,
+    max_bytes: float = DEFAULT_MAX_BYTES,
+    progress: bool = False,
 ) -> BlindValueBounds:
     """Bound ``V_none`` with blind candidates and with the oracles of schedules (module doc).
 
@@ -87,6 +94,9 @@ def blind_value_bounds(
         game: The game's solution for the same family, grid, horizon and discount, to reuse.
         rounds: Oracle / open-loop best-response alternations after the first schedules.
         max_nodes: Beam width of the open-loop searches.
+        max_bytes: Memory limit of each solve's estimate
+            (:mod:`ns_pz.agents.exact.solve_size`; default 4 GiB).
+        progress: Print each solve's size estimate and steps done on stderr.
 
     Raises:
         ValueError: No candidate, a candidate that reads θ (wrong shape), ``rounds < 0``, or a
@@ -105,8 +115,9 @@ def blind_value_bounds(
                 f"candidates[{name!r}] has shape {np.shape(policy)}; a blind policy is "
                 f"[H, S] actions or [H, S, A] probabilities"
             )
+    limits = {"max_bytes": max_bytes, "progress": progress}
     if game is None:
-        game = solve_game(env, grid, horizon, gamma=gamma)
+        game = solve_game(env, grid, horizon, gamma=gamma, **limits)
     else:
         game.check_reusable(env, grid, horizon, gamma)
     candidates = {
@@ -116,7 +127,7 @@ def blind_value_bounds(
     values: dict[str, float] = {}
 
     def guaranteed(name: str, policy: np.ndarray) -> None:
-        response = nature_best_response(env, policy, grid, horizon, gamma=gamma)
+        response = nature_best_response(env, policy, grid, horizon, gamma=gamma, **limits)
         assert isinstance(response, NatureResponse)
         values[name] = response.value
 
@@ -134,20 +145,23 @@ def blind_value_bounds(
     for name, policy in candidates.items():
         guaranteed(name, policy)
         schedule = open_loop_best_response(
-            env, policy, grid, horizon, gamma=gamma, max_nodes=max_nodes
+            env, policy, grid, horizon, gamma=gamma, max_nodes=max_nodes, **limits
         ).indices
         for round_ in range(rounds + 1):
             oracle_policy = try_schedule(schedule)
             guaranteed(f"oracle of the schedule against {name}, round {round_}", oracle_policy)
             if round_ < rounds:
                 schedule = open_loop_best_response(
-                    env, oracle_policy, grid, horizon, gamma=gamma, max_nodes=max_nodes
+                    env, oracle_policy, grid, horizon, gamma=gamma, max_nodes=max_nodes, **limits
                 ).indices
     best = max(values, key=values.__getitem__)
+    lower, upper = values[best], min(game.value, float(smallest))
+    if upper < lower <= upper + ROUNDING * max(1.0, abs(upper)):
+        lower = upper  # the same sums in another order: rounding must not invert the bracket
     return BlindValueBounds(
         detailed=game.value,
-        lower=values[best],
-        upper=min(game.value, float(smallest)),
+        lower=lower,
+        upper=upper,
         best_candidate=best,
         schedule=best_schedule,
         candidate_values=values,
@@ -172,7 +186,7 @@ def averaged_equilibrium(env: Any, grid: NatureGrid, game: GameSolution) -> np.n
     mass[list(family.start_states), grid.start, grid.full_budget] = 1.0 / len(family.start_states)
     blind = np.empty((horizon, num_states, num_actions))
     for t in range(horizon):
-        agent, nature = game.agent[t].astype(np.float64), game.nature[t].astype(np.float64)
+        agent, nature = game.agent[t], game.nature[t]
         weight = mass.reshape(num_states, -1)
         total = weight.sum(axis=1, keepdims=True)
         mixed = agent.reshape(num_states, -1, num_actions)
@@ -199,4 +213,4 @@ def averaged_equilibrium(env: Any, grid: NatureGrid, game: GameSolution) -> np.n
             )
             following += np.bincount(target.ravel(), weights=step.ravel(), minlength=following.size)
         mass = following.reshape(num_states, m, levels)
-    return blind
+    return blind / blind.sum(axis=2, keepdims=True)  # exact rows: averaging rounds

@@ -11,13 +11,28 @@ it and brackets the value with two best responses:
 where ``π̄, ν̄`` are CFR's average strategies (the gap is OpenSpiel's NashConv and shrinks as
 CFR runs). Each step is played as nature's move, then the agent's, then chance's; the agent's
 information state does not include nature's move at this step, which makes the two moves
-simultaneous as in the game (DESIGN.md). The agent's information state is its own history of
-states and actions, plus at ``basic`` whether θ changed behind each past transition and at
-``detailed`` θ_{t-1} itself (nature's past grid indices). Nature's is its own past moves and, by
-default, the agent's states.
+simultaneous as in the game (the turn order of ns_pz's game: nature moves before it sees
+a_t). The agent's information state is its own history of states and actions, plus at
+``basic`` whether θ changed behind each past transition and at ``detailed`` θ_{t-1} itself
+(nature's past grid indices).
+
+**Nature sees what the environment's state-observing nature sees.** In the environment such a
+nature (``NatureInterface(observes_state=True)``, a learned or a :class:`PolicyNature`) observes
+at step ``t`` the agent's state ``s_t`` *and its last action* ``a_{t-1}``, besides ``t``, θ and
+its budget. With perfect recall its information state here is therefore the agent's states
+``s_0 .. s_t``, the agent's actions ``a_0 .. a_{t-1}`` and its own past moves
+(``nature_sees_state=True``, the default). An earlier version left the actions out: a weaker
+nature, and a higher value at ``none`` than the environment's nature concedes. With
+``nature_sees_state=False`` nature sees only ``t`` and its own moves (a schedule fixed in
+advance in effect, as the environment's nature without ``observes_state``). At ``detailed`` the
+state-seeing nature reaches the value of Shapley's induction
+(:func:`~ns_pz.agents.exact.game_value.solve_game`), whose nature sees only ``(t, s_t,
+θ_{t-1}, budget)``: there the stage is a sufficient statistic, and the past actions cannot help
+nature.
 
 The tree grows as ``(moves · actions · outcomes)^H``: this is for small instances (a few steps
-on a small map). Needs the ``openspiel`` extra (``pip install open-spiel``).
+on a small map). :class:`NSMDPGame` bounds the number of histories up front and refuses beyond
+``max_histories``. Needs the ``openspiel`` extra (``pip install open-spiel``).
 """
 
 from __future__ import annotations
@@ -36,9 +51,12 @@ except ImportError as error:  # the optional extra: say how to get it
     ) from None
 from ns_pz.agents.exact.game_stages import check_game, family_of, grid_tables
 from ns_pz.agents.exact.nature_grid import NatureGrid
+from ns_pz.agents.exact.solve_progress import SolveProgress
 
 AGENT, NATURE = 0, 1
 LEVELS = ("none", "basic", "detailed")
+DEFAULT_MAX_HISTORIES = 10**6
+"""Most histories :class:`NSMDPGame` accepts by default (CFR visits each every iteration)."""
 
 
 class NSMDPGame(pyspiel.Game):
@@ -49,10 +67,15 @@ class NSMDPGame(pyspiel.Game):
         grid: Nature's action set.
         horizon: ``H`` (number of transitions).
         level: What the agent is told: ``"none"``, ``"basic"`` or ``"detailed"``.
-        nature_sees_state: Whether nature's information includes the agent's states.
+        nature_sees_state: Whether nature's information includes the agent's states and
+            actions (module docstring).
+        max_histories: Refuse a game whose number of histories may exceed this: the bound
+            ``starts · (moves · actions · outcomes)^H``, with the most moves nature has at a
+            stage and the most outcomes with probability > 0 of a (state, action).
 
     Raises:
-        ValueError: An unknown level (and the errors of the exact solvers for the rest).
+        ValueError: An unknown level, a game beyond ``max_histories`` (the bound is in the
+            message), and the errors of the exact solvers for the rest.
     """
 
     def __init__(
@@ -63,9 +86,12 @@ class NSMDPGame(pyspiel.Game):
         *,
         level: str = "none",
         nature_sees_state: bool = True,
+        max_histories: int = DEFAULT_MAX_HISTORIES,
     ) -> None:
         if level not in LEVELS:
             raise ValueError(f"level={level!r} is not a notification level; allowed: {LEVELS}")
+        if not isinstance(nature_sees_state, bool):
+            raise TypeError(f"nature_sees_state={nature_sees_state!r} must be a bool")
         self.horizon = check_game(horizon, 1.0)[0]
         self.family = family_of(env)
         self.grid = grid
@@ -73,6 +99,8 @@ class NSMDPGame(pyspiel.Game):
         self.level = level
         self.nature_sees_state = nature_sees_state
         self.next_budget = grid.next_budget()
+        self.histories = history_bound(self.family, self.tables, self.next_budget, self.horizon)
+        _check_histories(self.histories, max_histories)
         num_states, num_actions, num_outcomes = self.tables[0].probs.shape
         self.num_actions = num_actions
         rewards = np.abs(np.stack([t.rewards for t in self.tables]))
@@ -110,6 +138,28 @@ class NSMDPGame(pyspiel.Game):
     def make_py_observer(self, iig_obs_type: Any = None, params: Any = None) -> InfoStateObserver:
         """The information-state observer (strings only)."""
         return InfoStateObserver()
+
+
+def history_bound(family: Any, tables: list[Any], next_budget: np.ndarray, horizon: int) -> int:
+    """Upper bound on the game's histories: ``starts · (moves · actions · outcomes)^H``."""
+    moves = int((next_budget >= 0).sum(axis=2).max())
+    num_actions = tables[0].probs.shape[1]
+    outcomes = max(int((table.probs > 0).sum(axis=2).max()) for table in tables)
+    return len(family.start_states) * (moves * num_actions * outcomes) ** horizon
+
+
+def _check_histories(histories: int, max_histories: object) -> None:
+    if isinstance(max_histories, bool) or not isinstance(max_histories, int):
+        raise TypeError(f"max_histories={max_histories!r} must be an int >= 1")
+    if max_histories < 1:
+        raise ValueError(f"max_histories={max_histories!r} must be >= 1")
+    if histories > max_histories:
+        raise ValueError(
+            f"the game may have up to {histories:.3g} histories (starts × (moves × actions × "
+            f"outcomes)^H), beyond max_histories={max_histories:,}: CFR walks every one each "
+            "iteration. Shorten the horizon, use fewer grid points or a smaller map, or pass "
+            "a larger max_histories"
+        )
 
 
 class NSMDPState(pyspiel.State):
@@ -212,7 +262,9 @@ class NSMDPState(pyspiel.State):
         """The information state of ``player`` as a string."""
         states = ",".join(map(str, self.states))
         if player == NATURE:
-            seen = states if self.game.nature_sees_state else f"t{len(self.choices)}"
+            seen = f"t{len(self.choices)}"
+            if self.game.nature_sees_state:  # s_0 .. s_t and a_0 .. a_{t-1}, as in the env
+                seen = f"{states}|{','.join(map(str, self.actions))}"
             return f"N|{seen}|{','.join(map(str, self.choices))}"
         known = self.choices[: len(self.actions)]  # θ_0 .. θ_{t-1}, not θ_t
         told = ""
@@ -264,8 +316,16 @@ class ValueBracket:
         return self.upper - self.lower
 
 
-def cfr_value_bracket(game: NSMDPGame, iterations: int = 200) -> ValueBracket:
+def cfr_value_bracket(
+    game: NSMDPGame, iterations: int = 200, *, progress: bool = False
+) -> ValueBracket:
     """Run CFR+ and bracket the value with best responses to its average strategies.
+
+    Args:
+        game: The game.
+        iterations: CFR+ iterations.
+        progress: Print the game's size bound, then the iterations done and an ETA, on
+            stderr.
 
     Raises:
         ValueError: ``iterations < 1``.
@@ -274,9 +334,18 @@ def cfr_value_bracket(game: NSMDPGame, iterations: int = 200) -> ValueBracket:
 
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise ValueError(f"iterations={iterations!r} must be an int >= 1")
+    if not isinstance(progress, bool):
+        raise TypeError(f"progress={progress!r} must be a bool")
+    line = None
+    if progress:
+        line = SolveProgress(
+            "cfr_value_bracket", iterations, f"up to {game.histories:.3g} histories a pass"
+        )
     solver = cfr.CFRPlusSolver(game)
-    for _ in range(iterations):
+    for done in range(1, iterations + 1):
         solver.evaluate_and_update_policy()
+        if line is not None:
+            line.step(done)
     average = solver.average_policy()
     against_nature = exploitability.best_response(game, average, AGENT)
     against_agent = exploitability.best_response(game, average, NATURE)
