@@ -268,9 +268,7 @@ class NSGame(AECEnv):
                 process.monitor_turn(flags, sizes)
             self._scripted_notice = None
             if self._monitor_reward is not None:
-                self._pay_monitor(
-                    monitor_reward_value(self._monitor_reward, process, tuple(flags))
-                )
+                self._pay_monitor(monitor_reward_value(self._monitor_reward, process, tuple(flags)))
                 return
         else:
             action = process.family.check_action(action)
