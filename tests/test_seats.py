@@ -752,3 +752,16 @@ def test_nature_observes_a_zero_budget_as_spent_not_as_absent(budget: dict) -> N
     assert zero[slot] == 0.0
     assert zero[:slot] + zero[slot + 1 :] == [1.0] * (1 + len(names))
     assert observations["zero"][start + 2 + len(names)] == 1.0  # the budgeted flag
+
+
+def test_one_policy_monitor_bound_to_two_families_is_refused_as_detectors_are():
+    """It took the last family's flag count and broke the first env; several of one family and
+    any θ_0 still share it (a vector of envs, the game and its view)."""
+    monitor = PolicyMonitor(lambda obs: [0])
+    first = ns_pz.make_gym("ns_pz/FrozenLake-v0", monitor=monitor, notification="basic")
+    ns_pz.make_gym("ns_pz/FrozenLake-v0", monitor=monitor, params={"slip": (0.5, 0.25, 0.25)})
+    with pytest.raises(ValueError, match="PolicyMonitor is bound to FrozenLakeFamily.*own"):
+        ns_pz.make_gym("ns_pz/CartPole-v0", monitor=monitor, notification="basic")
+    first.reset(seed=0)
+    observation, *_ = first.step(0)  # the first env still gets its one flag
+    assert observation["env_change"].tolist() == [0]
