@@ -755,8 +755,10 @@ def test_nature_observes_a_zero_budget_as_spent_not_as_absent(budget: dict) -> N
 
 
 def test_one_policy_monitor_bound_to_two_families_is_refused_as_detectors_are():
-    """It took the last family's flag count and broke the first env; several of one family and
-    any θ_0 still share it (a vector of envs, the game and its view)."""
+    """It took the last family's flag count and broke the first env.
+
+    Envs of one family, whatever their θ_0, still share it (a vector of envs, game and view).
+    """
     monitor = PolicyMonitor(lambda obs: [0])
     first = ns_pz.make_gym("ns_pz/FrozenLake-v0", monitor=monitor, notification="basic")
     ns_pz.make_gym("ns_pz/FrozenLake-v0", monitor=monitor, params={"slip": (0.5, 0.25, 0.25)})
