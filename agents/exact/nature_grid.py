@@ -214,6 +214,11 @@ def nature_grid(
     return NatureGrid(tuple(points), points.index(start), allowed, costs, levels + 1, budget_unit)
 
 
+MAX_LINE_POINTS = 2001
+"""Most points :func:`slip_line_grid` builds: its grid compares every pair (1,001 points took
+about 6 s here, and the time grows with the square)."""
+
+
 def slip_line_grid(
     theta0: Params,
     step: float,
@@ -241,7 +246,8 @@ def slip_line_grid(
     Raises:
         TypeError: ``field`` is not a probability vector of ``theta0``.
         ValueError: ``step`` is not positive, ``low``/``high`` are not ordered probabilities,
-            or ``theta0`` is off the line or outside ``[low, high]``.
+            ``theta0`` is off the line or outside ``[low, high]``, or ``step`` would put more
+            than :data:`MAX_LINE_POINTS` points on the line (the message names the count).
     """
     spec = theta0.spec(field)
     if spec.kind != SIMPLEX:
@@ -258,6 +264,13 @@ def slip_line_grid(
         raise ValueError(f"p_0={p0!r} lies outside [low, high] = [{low!r}, {high!r}]")
     down = math.floor((p0 - low) / step + 1e-9)
     up = math.floor((high - p0) / step + 1e-9)
+    if down + up + 1 > MAX_LINE_POINTS:
+        raise ValueError(
+            f"step={step!r} puts {down + up + 1} points on [{low!r}, {high!r}], whose grid "
+            f"compares {(down + up + 1) ** 2} pairs of points (minutes of Python, and more to "
+            f"solve); at most {MAX_LINE_POINTS} points: step >= "
+            f"{(high - low) / (MAX_LINE_POINTS - 1):.3g}"
+        )
     ps = [min(max(p0 + k * step, 0.0), 1.0) for k in range(-down, up + 1)]
     thetas = [
         theta0 if k == 0 else theta0.replace(**{field: equal_split(p, len(vector))})
