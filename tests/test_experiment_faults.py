@@ -259,6 +259,26 @@ def test_a_full_disk_names_the_file_and_leaves_no_temporary_file(
     assert sorted(left) == [".lock", "spec.json"] or sorted(left) == ["spec.json"]
 
 
+def test_a_full_disk_when_taking_the_lock_names_the_lock_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Writing the holder's PID can fail too; the error names the file, the lock is released."""
+    import ns_pz.experiments.lock as lock_module
+
+    def full(fd: int, data: bytes) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(lock_module.os, "write", full)
+        with (
+            pytest.raises(OSError, match=f"cannot write the lock file {tmp_path / 'out'}/.lock"),
+            lock_module.locked(tmp_path / "out"),
+        ):
+            pass
+    with lock_module.locked(tmp_path / "out"):  # not left held
+        pass
+
+
 # -- bad spec files ---------------------------------------------------------------------------
 def test_a_spec_that_is_not_utf8_is_named(tmp_path: Path) -> None:
     """A bare UnicodeDecodeError named no file."""

@@ -55,6 +55,10 @@ def locked(directory: str | Path) -> Iterator[None]:
         os.ftruncate(fd, 0)
         os.lseek(fd, 0, os.SEEK_SET)
         os.write(fd, f"{os.getpid()}\n".encode())
+    except OSError as error:  # a full disk: name the file
+        os.close(fd)
+        reason = error.strerror or str(error)
+        raise OSError(error.errno, f"cannot write the lock file {path}: {reason}") from error
     except BaseException:
         os.close(fd)
         raise
