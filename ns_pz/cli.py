@@ -129,8 +129,8 @@ def _report_unreadable(store: ResultStore) -> None:
         print(f"ns-pz: skipped {path}: {reason}", file=sys.stderr)
 
 
-def _each_run(root: Path, report: Callable[[Path], None]) -> int:
-    """Call ``report`` on each results directory under ``root``; skip unreadable ones.
+def _each_run(root: Path, report_fn: Callable[[Path], None]) -> int:
+    """Call ``report_fn`` on each results directory under ``root``; skip unreadable ones.
 
     A directory whose ``spec.json`` cannot be used is named on stderr with the reason, and the
     others are still reported.
@@ -143,7 +143,7 @@ def _each_run(root: Path, report: Callable[[Path], None]) -> int:
     reported = 0
     for run_dir in _run_dirs(root):
         try:
-            report(run_dir)
+            report_fn(run_dir)
         except SpecError as error:
             print(f"ns-pz: skipped {run_dir}: {error}", file=sys.stderr)
             continue
