@@ -119,19 +119,41 @@ def _tables(run_dir: Path, fmt: str) -> str:
 
 
 def _report_unreadable(store: ResultStore) -> None:
-    """Name, on stderr, the trial files a report leaves out because they cannot be read."""
+    """Name, on stderr, the files of ``trials/`` a report leaves out, and why."""
     for path, reason in store.unreadable():
         print(
             f"ns-pz: skipped {path}: unreadable ({reason}); `bench run --resume` re-runs it",
             file=sys.stderr,
         )
+    for path, reason in store.strays():
+        print(f"ns-pz: skipped {path}: {reason}", file=sys.stderr)
+
+
+def _each_run(root: Path, report_fn: Callable[[Path], None]) -> int:
+    """Call ``report_fn`` on each results directory under ``root``; skip unreadable ones.
+
+    A directory whose ``spec.json`` cannot be used is named on stderr with the reason, and the
+    others are still reported.
+
+    Returns:
+        ``EXIT_OK``, or ``EXIT_USAGE`` if no directory could be reported.
+    """
+    from ns_pz.experiments import SpecError
+
+    reported = 0
+    for run_dir in _run_dirs(root):
+        try:
+            report_fn(run_dir)
+        except SpecError as error:
+            print(f"ns-pz: skipped {run_dir}: {error}", file=sys.stderr)
+            continue
+        reported += 1
+    return EXIT_OK if reported else EXIT_USAGE
 
 
 def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench table``: the tables of every run under DIR."""
-    for run_dir in _run_dirs(Path(args.dir)):
-        out(_tables(run_dir, args.format) + "\n")
-    return EXIT_OK
+    return _each_run(Path(args.dir), lambda run_dir: out(_tables(run_dir, args.format) + "\n"))
 
 
 def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
@@ -140,7 +162,7 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ns_pz.experiments.report import plot
     from ns_pz.experiments.store import ResultStore
 
-    for run_dir in _run_dirs(Path(args.dir)):
+    def plot_run(run_dir: Path) -> None:
         store = ResultStore(run_dir)
         record = store.spec_record()
         _report_unreadable(store)
@@ -150,7 +172,8 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
             store.rows(), spec_record["title"], run_dir / "plots", spec_record, optimum
         ):
             out(str(path))
-    return EXIT_OK
+
+    return _each_run(Path(args.dir), plot_run)
 
 
 def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:

@@ -38,7 +38,7 @@ from ns_pz.errors import ResetNeeded
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import Monitor
 from ns_pz.monitor.notification import NotificationLevel
-from ns_pz.monitor.scoring import MonitorRewardFn, monitor_reward_of
+from ns_pz.monitor.scoring import MonitorRewardFn, monitor_reward_of, monitor_reward_value
 from ns_pz.nature.constraints import NatureConstraints
 from ns_pz.nature.policies import Nature
 from ns_pz.observations import (
@@ -268,7 +268,7 @@ class NSGame(AECEnv):
                 process.monitor_turn(flags, sizes)
             self._scripted_notice = None
             if self._monitor_reward is not None:
-                self._pay_monitor(float(self._monitor_reward(process, tuple(flags))))
+                self._pay_monitor(monitor_reward_value(self._monitor_reward, process, tuple(flags)))
                 return
         else:
             action = process.family.check_action(action)

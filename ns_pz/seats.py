@@ -29,6 +29,7 @@ from ns_pz.monitor.scoring import (  # DetectionReward: still importable from he
     DetectionReward,  # noqa: F401
     MonitorRewardFn,
     monitor_reward_of,
+    monitor_reward_value,
 )
 from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS, check_default_step
 from ns_pz.nature.learned import PolicyNature
@@ -337,7 +338,7 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
         else:
             flags = _flags_of(action, len(process.no_change))
             process.monitor_turn(flags, process.no_change)
-            reward = float(self._monitor_reward(process, flags))
+            reward = monitor_reward_value(self._monitor_reward, process, flags)
             process.play_until(MONITOR, self._decide)
         terminated, truncated = process.ended if process.done else (False, False)
         if self.render_mode == "human":

@@ -27,6 +27,8 @@ Two engines, chosen at construction, give the same results:
 from __future__ import annotations
 
 import math
+import os
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -59,6 +61,7 @@ from ns_pz.nature.schedulers import (
 from ns_pz.observations import agent_observation_space
 from ns_pz.params import SIMPLEX, SIMPLEX_ATOL, Params
 from ns_pz.process import DECISION, RESET_OPTIONS, NSProcess, check_seed
+from ns_pz.process import _caller_outside_libraries as stacklevel
 
 ARRAY_SCHEDULERS = (ContinuousScheduler, PeriodicScheduler, DiscreteScheduler, WindowScheduler)
 """Schedulers the array engine evaluates (they draw nothing from nature's generator)."""
@@ -186,8 +189,9 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         self.metadata = {"autoreset_mode": mode, "render_modes": []}
         self.render_mode = None
         natures = _natures(nature, self.num_envs)
-        self._processes = [
-            NSProcess(
+
+        def process(one: Nature | None) -> NSProcess:
+            return NSProcess(
                 family,
                 params=params,
                 nature=one,
@@ -196,9 +200,8 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
                 constraints=constraints,
                 max_episode_steps=max_episode_steps,
             )
-            for one in natures
-        ]
-        first = self._processes[0]
+
+        first = process(natures[0])  # it holds θ_0 and the checked settings
         self.family = family
         self.kernel = LoopKernel(family) if kernel is None else kernel
         if self.kernel.family is not family:
@@ -210,8 +213,10 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
         )
         self.engine = "processes" if self._schedule is None else "arrays"
         """``"arrays"`` or ``"processes"`` (see the module docstring)."""
-        if self.engine == "arrays":
-            del self._processes[1:]  # the first one holds θ_0 and the checked settings
+        check_size(self.num_envs, self.engine)
+        self._processes = [first]
+        if self.engine == "processes":
+            self._processes += [process(one) for one in natures[1:]]
 
         self.single_observation_space = agent_observation_space(family)
         self.single_action_space = family.action_space
@@ -636,6 +641,41 @@ class NSVectorEnv(gym.vector.VectorEnv[dict[str, Any], Any, Any]):
             f"NSVectorEnv({self.family!r}, num_envs={self.num_envs}, engine={self.engine!r}, "
             f"notification={self.level.value!r})"
         )
+
+
+BYTES_PER_ENV = {"arrays": 8 * _BUFFER + 512, "processes": 8 * _BUFFER + 512 + 8_000}
+"""Memory one sub-env takes, roughly, by engine: the uniforms drawn ahead and the batch rows;
+the processes engine adds one process (about 5 KB for CartPole, more with a learned nature or a
+detector)."""
+LARGE = 2**30
+"""Above this estimate (bytes), building a vector env warns with its size."""
+
+
+def check_size(num_envs: int, engine: str) -> None:
+    """Refuse a vector env larger than this machine's memory; warn above :data:`LARGE`.
+
+    Raises:
+        ValueError: The estimate exceeds the physical memory; the message names ``num_envs``,
+            the engine and the estimate.
+    """
+    estimate = num_envs * BYTES_PER_ENV[engine]
+    memory = physical_memory()
+    what = (
+        f"num_envs={num_envs} on the {engine} engine needs about {estimate / 2**30:.1f} GiB "
+        f"({BYTES_PER_ENV[engine]} bytes per sub-env)"
+    )
+    if memory is not None and estimate > memory:
+        raise ValueError(f"{what}, more than this machine's {memory / 2**30:.1f} GiB of memory")
+    if estimate > LARGE:
+        warnings.warn(f"{what}; building it may take a while", stacklevel=stacklevel())
+
+
+def physical_memory() -> int | None:
+    """This machine's memory in bytes (``None`` where the system does not say)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):
+        return None
 
 
 def _natures(nature: Nature | Sequence[Nature] | None, count: int) -> list[Nature | None]:

@@ -12,19 +12,32 @@ import os
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
+from typing import Any
 
 
-def new_pool(workers: int) -> ProcessPoolExecutor:
+def new_pool(workers: int, started: Any = None) -> ProcessPoolExecutor:
     """A spawn-context pool of ``workers`` processes that end if this process goes away.
 
     Stop it with :func:`stop_pool`.
+
+    Args:
+        workers: Processes in the pool.
+        started: A ``multiprocessing.Event`` of the spawn context, set by each worker once it
+            has started (imported the caller's ``__main__`` again, as spawn does): a pool that
+            breaks with it unset never ran a task.
     """
     return ProcessPoolExecutor(
         workers,
         mp_context=multiprocessing.get_context("spawn"),
-        initializer=die_with_parent,
-        initargs=(os.getpid(),),
+        initializer=_start_worker,
+        initargs=(os.getpid(), started),
     )
+
+
+def _start_worker(parent: int, started: Any) -> None:
+    die_with_parent(parent)
+    if started is not None:
+        started.set()
 
 
 def stop_pool(pool: ProcessPoolExecutor, clean: bool) -> None:

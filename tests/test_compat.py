@@ -1155,3 +1155,117 @@ def test_bridge_split_mode_follows_the_tunable_names_as_in_nsgym():
     assert params["P_left"] == pytest.approx([0.9, 0.05, 0.05])
     assert params["P_right"] == [0.5, 0.25, 0.25]
     assert bridge.unwrapped.P_right == [0.5, 0.25, 0.25]
+
+
+# -- issue 27, item 5: NS-Gym code that reads the base env through ``unwrapped`` ----------------
+BASE_ENVS = {
+    "CartPole-v1": ("masspole", lambda: IncrementUpdate(ContinuousScheduler(), k=0.01)),
+    "Acrobot-v1": ("LINK_MASS_1", lambda: IncrementUpdate(ContinuousScheduler(), k=0.01)),
+    "MountainCar-v0": ("gravity", lambda: IncrementUpdate(ContinuousScheduler(), k=1e-5)),
+    "Pendulum-v1": ("m", lambda: IncrementUpdate(ContinuousScheduler(), k=0.01)),
+    "FrozenLake-v1": ("P", lambda: DistributionDecrementUpdate(ContinuousScheduler(), k=0.01)),
+    "CliffWalking-v1": ("P", lambda: DistributionDecrementUpdate(ContinuousScheduler(), k=0.01)),
+}
+
+
+def _wrap(gym_id):
+    env = gym.make(gym_id)
+    name, fn = BASE_ENVS[gym_id]
+    wrapper = {"FrozenLake-v1": NSFrozenLakeWrapper, "CliffWalking-v1": NSCliffWalkingWrapper}
+    return env, wrapper.get(gym_id, NSClassicControlWrapper)(env, {name: fn()})
+
+
+@pytest.mark.parametrize("gym_id", sorted(BASE_ENVS))
+def test_unwrapped_is_named_and_shaped_like_the_base_env(gym_id):
+    """NS-Gym code that reads the base env through ``ns_env.unwrapped`` runs.
+
+    TUNABLE_PARAMS[type(ns_env.unwrapped).__name__] raised KeyError: 'CompatCore', and
+    ns_env.unwrapped.observation_space was compat's Dict, not the base env's space.
+    """
+    env, ns_env = _wrap(gym_id)
+    name = type(env.unwrapped).__name__
+    assert type(ns_env.unwrapped).__name__ == name
+    assert base.TUNABLE_PARAMS[type(ns_env.unwrapped).__name__] == ns_env.get_default_params()
+    assert ns_env.unwrapped.observation_space == env.unwrapped.observation_space
+    state, _ = ns_env.unwrapped.reset(seed=3)
+    assert ns_env.unwrapped.observation_space.contains(state)
+    observation, _ = ns_env.reset(seed=3)
+    assert np.array_equal(observation["state"], state)
+    action = ns_env.action_space.sample() if gym_id == "Pendulum-v1" else 0
+    assert ns_env.unwrapped.observation_space.contains(ns_env.unwrapped.step(action)[0])
+    revived = pickle.loads(pickle.dumps(ns_env))  # the renamed class pickles and copies
+    assert type(revived.unwrapped).__name__ == name
+    assert type(copy.deepcopy(ns_env).unwrapped).__name__ == name
+    assert isinstance(ns_env.unwrapped, ns_pz.compat.attributes.CompatCore)
+
+
+def test_distribution_update_functions_are_update_functions_as_in_nsgym():
+    """isinstance(fn, UpdateFn) was False for every distribution update function."""
+    for name in uf.distribution.__all__:
+        cls = getattr(uf.distribution, name)
+        assert issubclass(cls, base.UpdateFn) and issubclass(cls, base.UpdateDistributionFn)
+    for name in uf.single_param.__all__:
+        assert not issubclass(getattr(uf.single_param, name), base.UpdateDistributionFn)
+    drift = UniformDrift(ContinuousScheduler(), 0.1)
+    assert isinstance(drift, base.UpdateFn)
+    with pytest.raises(TypeError, match="must be a scalar update function"):
+        cartpole({"masspole": drift})  # still refused where a number changes
+
+
+def _schedule(scheduler_seed, reset_seed, episodes=2):
+    fn = IncrementUpdate(MemorylessScheduler(0.3, seed=scheduler_seed), k=1e-5)
+    env = NSClassicControlWrapper(gym.make("MountainCar-v0"), {"gravity": fn})
+    runs = []
+    for _ in range(episodes):
+        observation, _ = env.reset(seed=reset_seed)
+        changes = []
+        for t in range(40):
+            info = env.step(1)[-1]
+            if info["Ground Truth Env Change"]["gravity"]:
+                changes.append(t)
+        runs.append((observation["state"].tolist(), changes))
+    return runs
+
+
+def test_a_seeded_memoryless_scheduler_differs_between_seeds_under_one_reset_seed():
+    """MemorylessScheduler(seed=1) and seed=2 gave one schedule once reset had a seed."""
+    one, two = _schedule(1, 0), _schedule(2, 0)
+    assert one == _schedule(1, 0)  # the same pair repeats
+    assert one[0][0] == two[0][0]  # the env's start follows the reset seed alone
+    assert one[0][1] != two[0][1]  # the schedule follows the scheduler's seed too
+    unseeded = _schedule(1, None), _schedule(2, None)
+    assert unseeded[0] == _schedule(1, None) and unseeded[0] != unseeded[1]
+
+
+def test_bridge_per_region_api_of_nsgyms_current_release():
+    """left_side_prob / right_side_prob and get_loc_based_prob (and its first spelling)."""
+    from ns_pz.compat.envs.Bridge import Bridge
+
+    bridge = Bridge(split_probs=True)
+    bridge.left_side_prob = [0.8, 0.1, 0.1]
+    assert bridge.P_left == bridge.left_side_prob == [0.8, 0.1, 0.1]
+    assert bridge.right_side_prob == bridge.P_right == [1.0, 0.0, 0.0]
+    assert bridge.get_loc_based_prob((2, 3)) == [0.8, 0.1, 0.1]  # col < ncol // 2: left
+    assert bridge.get_loc_basedProb(np.array([2, 4])) == [1.0, 0.0, 0.0]
+    assert Bridge(global_init_probs=[0.5, 0.25, 0.25]).get_loc_based_prob((2, 1)) == [
+        0.5,
+        0.25,
+        0.25,
+    ]
+    for bad in ((9, 0), (2, 8), (2,), (2, 1.5), "ab"):
+        with pytest.raises(ValueError, match=r"must be a \(row, col\) pair of integers"):
+            bridge.get_loc_based_prob(bad)
+    env = Bridge()
+    ns_env = NSBridgeWrapper(
+        env, {"P_left": DistributionDecrementUpdate(ContinuousScheduler(), k=0.1)}
+    )
+    ns_env.reset(seed=0)
+    ns_env.step(0)
+    left = ns_env.get_params()["P_left"]
+    for owner in (env, ns_env.unwrapped):
+        assert owner.left_side_prob == owner.P_left == left
+        assert owner.right_side_prob == [1.0, 0.0, 0.0]
+        assert owner.get_loc_based_prob((2, 1)) == left
+        assert owner.get_loc_basedProb((2, 6)) == [1.0, 0.0, 0.0]
+        with pytest.raises(AttributeError, match="read-only"):
+            owner.left_side_prob = [1.0, 0.0, 0.0]

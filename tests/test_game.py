@@ -578,3 +578,35 @@ def test_monitor_reward_is_refused_unless_none_detection_or_a_function():
         env_creator("ns_pz/CartPole-v0", scripted_monitor=False, monitor_reward="detection")(
             {"monitor_reward": None}
         )
+
+
+def _nan_reward(process, flags):
+    return float("nan")
+
+
+def _text_reward(process, flags):
+    return "1.0"
+
+
+@pytest.mark.parametrize(
+    ("reward_fn", "error", "said"),
+    [(_nan_reward, ValueError, "returned nan"), (_text_reward, TypeError, "returned '1.0'")],
+)
+@pytest.mark.parametrize("where", ["game", "seat"])
+def test_a_monitor_reward_giving_nan_or_a_non_number_is_refused_by_name(
+    reward_fn, error, said, where
+):
+    """NaN would reach the learner as reward=nan; a string failed inside float() unnamed."""
+    if where == "game":
+        game = ns_pz.make("ns_pz/CartPole-v0", monitor_action="flags", monitor_reward=reward_fn)
+        game.reset(seed=0)
+        game.step(game.policy_action(NATURE))
+        with pytest.raises(error, match=f"monitor_reward=.*_reward.* {said}"):
+            game.step(np.zeros(6, np.int64))
+    else:
+        seat = ns_pz.single_agent(
+            "ns_pz/CartPole-v0", "monitor", {DECISION: lambda obs: 0}, monitor_reward=reward_fn
+        )
+        seat.reset(seed=0)
+        with pytest.raises(error, match=f"monitor_reward=.*_reward.* {said}"):
+            seat.step(np.zeros(6, np.int64))

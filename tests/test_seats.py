@@ -726,3 +726,44 @@ def test_a_policy_nature_pickles_after_acting():
     view.step(0)
     again = pickle.loads(pickle.dumps(nature))
     assert again.action == nature.action and len(again._checked) == 0
+
+
+@pytest.mark.parametrize(
+    "budget",
+    [{"budget": 0.0}, {"normalized_budget": 0.0}, {"budget": {"masspole": 0.0}}],
+)
+def test_nature_observes_a_zero_budget_as_spent_not_as_absent(budget: dict) -> None:
+    """A budget of 0 (nature frozen) reads 0.0 left, "no budget" 1.0; both inside the space."""
+    observations = {}
+    for name, constraints in (("zero", NatureConstraints(**budget)), ("none", None)):
+        game = ns_pz.make("ns_pz/CartPole-v0", constraints=constraints)
+        game.reset(seed=1)
+        interface = game.process.nature_interface("normalized")
+        observations[name] = observation = interface.observe(game.process)
+        assert interface.observation_space.contains(observation)
+    names = ns_pz.make("ns_pz/CartPole-v0").process.family.params_cls.names()
+    start = 1 + len(game.process.theta.flat_values())
+    zero = observations["zero"][start : start + 2 + len(names)].tolist()
+    none = observations["none"][start : start + 2 + len(names)].tolist()
+    assert none == [1.0] * (2 + len(names))
+    slot = {"budget": 0, "normalized_budget": 1}.get(next(iter(budget)), None)
+    if isinstance(budget.get("budget"), dict):
+        slot = 2 + names.index("masspole")
+    assert zero[slot] == 0.0
+    assert zero[:slot] + zero[slot + 1 :] == [1.0] * (1 + len(names))
+    assert observations["zero"][start + 2 + len(names)] == 1.0  # the budgeted flag
+
+
+def test_one_policy_monitor_bound_to_two_families_is_refused_as_detectors_are():
+    """It took the last family's flag count and broke the first env.
+
+    Envs of one family, whatever their θ_0, still share it (a vector of envs, game and view).
+    """
+    monitor = PolicyMonitor(lambda obs: [0])
+    first = ns_pz.make_gym("ns_pz/FrozenLake-v0", monitor=monitor, notification="basic")
+    ns_pz.make_gym("ns_pz/FrozenLake-v0", monitor=monitor, params={"slip": (0.5, 0.25, 0.25)})
+    with pytest.raises(ValueError, match="PolicyMonitor is bound to FrozenLakeFamily.*own"):
+        ns_pz.make_gym("ns_pz/CartPole-v0", monitor=monitor, notification="basic")
+    first.reset(seed=0)
+    observation, *_ = first.step(0)  # the first env still gets its one flag
+    assert observation["env_change"].tolist() == [0]

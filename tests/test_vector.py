@@ -503,3 +503,44 @@ def test_the_vector_envs_own_generator_follows_the_seed() -> None:
         assert vec.np_random_seed == 4
         draws.append(vec.np_random.random())
     assert draws[0] == draws[1]
+
+
+@pytest.mark.parametrize("nature", [None, RandomNature(0.05)], ids=["arrays", "processes"])
+def test_a_vector_env_larger_than_memory_is_refused_at_once(
+    nature: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """make_vec(id, 10**7) on the per-env engine built 10**7 processes for hours first."""
+    import time
+
+    import ns_pz.vector as vector
+
+    monkeypatch.setattr(vector, "physical_memory", lambda: 2**33)  # 8 GiB, whatever the machine
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=r"num_envs=10000000 on the \w+ engine needs about"):
+        make_vec("ns_pz/CartPole-v0", 10**7, nature=nature)
+    assert time.perf_counter() - start < 30.0
+
+
+def test_a_large_vector_env_warns_with_its_size_and_builds_no_process_per_sub_env(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The arrays engine built (then dropped) one process per sub-env; a large one now warns."""
+    import ns_pz.vector as vector
+
+    monkeypatch.setattr(vector, "LARGE", 1000 * vector.BYTES_PER_ENV["arrays"])
+    built = []
+    original = vector.NSProcess.__init__
+
+    def counting(self: Any, *args: Any, **kwargs: Any) -> None:
+        built.append(1)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(vector.NSProcess, "__init__", counting)
+    with pytest.warns(UserWarning, match=r"num_envs=2000 on the arrays engine needs about") as seen:
+        env = make_vec("ns_pz/CartPole-v0", 2000)
+    assert seen[0].filename == __file__  # the user's line, not ns_pz's
+    assert env.engine == "arrays" and len(built) == 1
+    env.reset(seed=0)
+    built.clear()
+    processes = make_vec("ns_pz/CartPole-v0", 5, nature=RandomNature(0.05))
+    assert processes.engine == "processes" and len(built) == 5

@@ -255,7 +255,8 @@ def slip_line_grid(
     Raises:
         TypeError: ``field`` is not a probability vector of ``theta0``.
         ValueError: ``step`` is not positive, ``low``/``high`` are not ordered probabilities,
-            or ``theta0`` is off the line or outside ``[low, high]``.
+            ``theta0`` is off the line or outside ``[low, high]``, or ``step`` would put more
+            than ``max_points`` points on the line (the message names the count).
     """
     spec = theta0.spec(field)
     if spec.kind != SIMPLEX:

@@ -3,7 +3,7 @@
 
 ``ns-pz bench run paper`` runs the NS-Gym paper's experiments from specs: small TOML files
 naming the environment, θ_0, the change, the notification levels and the agents. This page
-runs one of the shipped specs, shrunk, in this process and reads its tables; on the command
+runs one of the shipped specs, shrunk, and reads its tables; on the command
 line the same is ``ns-pz bench run frozenlake-single --out results`` and
 ``ns-pz bench table results``. The :doc:`/benchmark` page lists the commands and the shipped
 specs.
@@ -49,8 +49,11 @@ print(f"{len(spec.cells())} cells × {len(spec.agents)} agents × {spec.episodes
 # ------
 #
 # Each trial (cell × agent × seed) is deterministic from its seed; ``LocalBackend(1)`` runs
-# them in this process, a larger pool or Ray give identical rows. Rows are written as they
-# finish, so an interrupted run resumes without repeating a trial.
+# them one at a time in a worker process (so a trial that crashes its process is recorded as
+# an error instead of ending the run), a larger pool or Ray give identical rows. Rows are
+# written as they finish, so an interrupted run resumes without repeating a trial. A script
+# that calls ``run_spec`` does so under ``if __name__ == "__main__":``, as for any process
+# pool started with spawn.
 
 summary = run_spec(spec, work / "results", LocalBackend(1))
 print(summary)

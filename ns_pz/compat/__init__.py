@@ -26,7 +26,10 @@ Differences from NS-Gym (each one a defect there, or a choice ns_pz makes everyw
    planning envs draw from seeded child generators. (NS-Gym's random schedulers replay one
    pattern every episode and ignore the seed; its planning envs reseed from OS entropy.)
    ``seed=`` on a scheduler or update function seeds its standalone calls, and the wrapper's
-   first reset when that has no seed (so such runs repeat, as NS-Gym's do). A user subclass
+   first reset when that has no seed (so such runs repeat, as NS-Gym's do). A scheduler's
+   ``seed=`` also seeds nature's draws together with a reset seed (the env's start state still
+   follows the reset seed alone): as in NS-Gym, whose reset reseeds update functions but never
+   schedulers, two scheduler seeds give two schedules under one reset seed. A user subclass
    (its own ``_check`` or ``_update``) runs as a per-episode copy, called as NS-Gym calls it,
    whose numpy generators, under any attribute name, are reseeded from the wrapper's.
 3. ``flag`` is 1 only when the value actually changed: ``NoUpdate``, a used-up ``StepWiseUpdate``
@@ -55,7 +58,10 @@ Differences from NS-Gym (each one a defect there, or a choice ns_pz makes everyw
     its own seeded generator (NS-Gym's uses the global numpy generator).
 11. The env you wrap is read (class, map, constants, time limit), not stepped: the dynamics are
     ns_pz's families, and ``wrapper.unwrapped`` is the ns_pz env (a ``CompatCore``, not
-    ``env.unwrapped`` itself as in NS-Gym). As in NS-Gym, reads of the
+    ``env.unwrapped`` itself as in NS-Gym). It stands in for the base env: its class has the
+    base env's name (``TUNABLE_PARAMS[type(ns_env.unwrapped).__name__]`` works), its
+    ``observation_space`` is the base env's, and its own ``reset``/``step`` return the state
+    alone, though a step of it is a step of the wrapper's episode. As in NS-Gym, reads of the
     parameters show the θ in force, on ``env.unwrapped`` and ``wrapper.unwrapped`` alike
     (``masspole``, ``total_mass``, ``LINK_LENGTH_1``, ``m``, ``force``, FrozenLake's and
     CliffWalking's table ``P``, the Bridge's ``P``; the grid wrappers' ``transition_prob`` and
@@ -72,8 +78,10 @@ Differences from NS-Gym (each one a defect there, or a choice ns_pz makes everyw
     ``initial_prob_dist``, as in NS-Gym. Observations use floats for ``delta_change`` at reset
     too (NS-Gym: int 0). CliffWalking's ``modified_rewards`` must give ``"S"`` and ``"F"`` the
     same reward; the Bridge's ``modified_rewards`` must be ``None``.
-12. The Bridge's ``P`` (``P_left``, ``P_right`` when split) is validated when set, and changes
-    its dynamics from the next step; ``NSBridgeWrapper`` starts from the Bridge's own slip
+12. The Bridge's ``P`` (``P_left``, ``P_right`` when split, also read as ``left_side_prob``,
+    ``right_side_prob``; ``get_loc_based_prob((row, col))`` gives a cell's, as in NS-Gym's
+    current release, on the Bridge and on ``ns_env.unwrapped``) is validated when set, and
+    changes its dynamics from the next step; ``NSBridgeWrapper`` starts from the Bridge's own slip
     unless ``initial_prob_dist`` is given (both default to ``[1, 0, 0]``; NS-Gym's wrapper
     overwrites a ``P`` you set with its default).
 """

@@ -20,12 +20,21 @@ functions, or by hand through ``ns_env.unwrapped.set_params``.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, SupportsFloat, SupportsIndex
 
+import numpy as np
+
+from ns_pz.compat.envs.Bridge import slip_at
 from ns_pz.compat.families import Binding
 from ns_pz.compat.tables import transition_table
+from ns_pz.envs.bridge import BridgeFamily
 from ns_pz.errors import NSPZError
-from ns_pz.views import NSGymEnv
+from ns_pz.process import DECISION
+from ns_pz.views import NSGymEnv, reset_seeded
+
+_REGION_READERS = ("get_loc_based_prob", "get_loc_basedProb")
+"""NS-Gym's names of the Bridge's per-region slip reader."""
 
 
 class ReadOnlyParam(NSPZError, AttributeError):
@@ -33,15 +42,54 @@ class ReadOnlyParam(NSPZError, AttributeError):
 
 
 class CompatCore(NSGymEnv):
-    """The ns_pz env behind an NS-Gym wrapper, readable under NS-Gym's attribute names.
+    """The ns_pz env behind an NS-Gym wrapper (its ``unwrapped``), seen as NS-Gym's base env.
 
     Built like :class:`~ns_pz.views.NSGymEnv`, plus ``binding`` (keyword), the translation
-    between NS-Gym's names and the family's θ fields.
+    between NS-Gym's names and the family's θ fields. Build it with :func:`compat_core`, which
+    gives it the class name of the env it stands for (``CartPoleEnv``, ``FrozenLakeEnv``,
+    ``Bridge``), so code written for NS-Gym, where ``ns_env.unwrapped`` is the base env, reads
+    ``TUNABLE_PARAMS[type(ns_env.unwrapped).__name__]``. Its ``observation_space`` is the
+    base env's (the wrapper sets the very space of the env it wraps; the family's state space
+    until then), and its own ``reset`` and ``step`` return the state alone; the wrapper adds
+    NS-Gym's notification dict around it. Unlike stepping NS-Gym's base env by hand, a step
+    here is one of the episode the wrapper runs (nature moves as scheduled): θ lives in that
+    episode.
     """
 
-    def __init__(self, *args: Any, binding: Binding, **kwargs: Any) -> None:
+    def __init__(
+        self, *args: Any, binding: Binding, nature_seeds: Sequence[int] = (), **kwargs: Any
+    ) -> None:
         super().__init__(*args, **kwargs)
         self._ns_gym_binding = binding
+        self._nature_seeds = tuple(nature_seeds)
+        self.observation_space = self.family.observation_space
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        """Start an episode (see :meth:`ns_pz.views.NSGymEnv.reset`); the state alone.
+
+        With ``seed`` and ``nature_seeds`` (the ``seed=`` arguments of the wrapper's
+        schedulers), the env starts from ``seed`` alone and nature draws from both: as in
+        NS-Gym, whose reset reseeds update functions but never schedulers, two scheduler seeds
+        give two schedules under one reset seed, and the same pair repeats.
+        """
+        process = reset_seeded(self, self.process, seed, options)
+        if seed is not None and self._nature_seeds:
+            entropy = np.random.SeedSequence([int(seed), *self._nature_seeds])
+            process.nature_rng = np.random.Generator(np.random.PCG64(entropy))
+        process.play_until(DECISION)
+        return self.family.observe(process.state), self._info()
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        """One step of the episode (see :meth:`ns_pz.views.NSGymEnv.step`); the state alone."""
+        reward, terminated, truncated = self._advance(action)
+        state = self.family.observe(self.process.state)
+        return state, float(reward), bool(terminated), bool(truncated), self._info()
+
+    def __reduce_ex__(self, protocol: SupportsIndex) -> tuple[Any, ...]:
+        """Copied and pickled through :func:`compat_core`'s class of the same name."""
+        return _new_core, (type(self).__name__,), dict(vars(self))
 
     def ns_gym_attribute(self, name: str) -> Any:
         """The value NS-Gym's env would hold in attribute ``name`` now.
@@ -58,9 +106,29 @@ class CompatCore(NSGymEnv):
         if name in binding.names:
             value = getattr(theta, binding.names[name])
             return list(value) if isinstance(value, tuple) else value
+        if name in binding.aliases:
+            return self.ns_gym_attribute(binding.aliases[name])
         if name in binding.derived:
             return getattr(theta, name)
+        if name in _REGION_READERS and isinstance(self.family, BridgeFamily):
+            return self.get_loc_based_prob
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    def get_loc_based_prob(self, coord: Sequence[int]) -> list[float]:
+        """The Bridge's slip vector in force on the cell ``coord = (row, col)``, as NS-Gym's.
+
+        Also under NS-Gym's first spelling, ``get_loc_basedProb``. Read like the parameters
+        (the θ of the last transition); see :meth:`ns_pz.compat.envs.Bridge.get_loc_based_prob`.
+
+        Raises:
+            AttributeError: The env is not a Bridge.
+            ValueError: ``coord`` is not a ``(row, col)`` pair of integers on the map.
+        """
+        if not isinstance(self.family, BridgeFamily):
+            raise AttributeError(
+                f"get_loc_based_prob is the Bridge's; this env runs {self.family!r}"
+            )
+        return slip_at(self.family, self.process.last_theta, coord)
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):
@@ -72,6 +140,32 @@ class CompatCore(NSGymEnv):
         if binding is not None and name in binding.readable:
             raise read_only(binding, name, "ns_env.unwrapped")
         super().__setattr__(name, value)
+
+
+def compat_core(binding: Binding, *args: Any, **kwargs: Any) -> CompatCore:
+    """A :class:`CompatCore` for ``binding``, of a subclass named as ``binding.env_class``.
+
+    Arguments as for :class:`CompatCore`.
+    """
+    return _core_class(binding.env_class)(*args, binding=binding, **kwargs)
+
+
+_CORE_CLASSES: dict[str, type[CompatCore]] = {}
+"""Env class name -> the subclass of :class:`CompatCore` of that name."""
+
+
+def _core_class(name: str) -> type[CompatCore]:
+    cls = _CORE_CLASSES.get(name)
+    if cls is None:
+        doc = f"The ns_pz env behind an NS-Gym wrapper of a {name} (see CompatCore)."
+        namespace = {"__module__": __name__, "__qualname__": name, "__doc__": doc}
+        cls = _CORE_CLASSES[name] = type(name, (CompatCore,), namespace)
+    return cls
+
+
+def _new_core(name: str) -> CompatCore:
+    """An empty :class:`CompatCore` of the class called ``name`` (state set by the caller)."""
+    return object.__new__(_core_class(name))  # type: ignore[no-any-return]
 
 
 def read_only(binding: Binding, name: str, owner: str) -> ReadOnlyParam:

@@ -83,6 +83,20 @@ def explicit_seeds(fn: object) -> list[int]:
     return [seed for seed in seeds if seed is not None]
 
 
+def scheduler_seeds(fn: object) -> list[int]:
+    """The ``seed=`` values given to ``fn``'s scheduler and the scheduler of the update it wraps.
+
+    NS-Gym's ``reset(seed=...)`` reseeds a wrapper's update functions but never their
+    schedulers, which keep drawing from their own ``seed=``.
+    """
+    parts = [getattr(fn, "scheduler", None)]
+    inner = getattr(fn, "inner", None)
+    if inner is not None:
+        parts.append(getattr(inner, "scheduler", None))
+    seeds = [getattr(part, "_seed", None) for part in parts]
+    return [seed for seed in seeds if seed is not None]
+
+
 class Scheduler(ABC):
     """When a parameter changes: ``sched(t)`` is True at the steps it fires.
 
@@ -239,8 +253,11 @@ class UpdateFn(_Update, ABC):
         return _SubclassScalarRule(self)
 
 
-class UpdateDistributionFn(_Update, ABC):
+class UpdateDistributionFn(UpdateFn):
     """How a probability vector changes: ``fn(param, t) -> (new_list, flag, delta)``.
+
+    A subclass of :class:`UpdateFn`, as in NS-Gym, so ``isinstance(fn, UpdateFn)`` holds for
+    every update function; tell the two kinds apart with ``isinstance(fn, UpdateDistributionFn)``.
 
     ``param`` is a list (or any sequence) that must be a probability vector; it is refused with
     ``ValueError`` otherwise (NS-Gym accepts a vector summing to 0.9). ``delta`` is the total
@@ -248,7 +265,9 @@ class UpdateDistributionFn(_Update, ABC):
     uses W1 over positions 0..n-1, which depends on the order of the outcomes).
     """
 
-    def __call__(self, param: Any, t: int | float) -> tuple[list[float], int, float]:
+    def __call__(  # type: ignore[override]  # a vector in and out, as in NS-Gym
+        self, param: Any, t: int | float
+    ) -> tuple[list[float], int, float]:
         """Apply the update if the scheduler fires at ``t``."""
         t = check_time("t", t)
         value = check_distribution("param", param)
@@ -265,7 +284,7 @@ class UpdateDistributionFn(_Update, ABC):
         """The new vector at a firing; concrete classes compute it with their native rule."""
         return self._native_update(tuple(param), t)
 
-    def native(self) -> native_updates.DistributionUpdateFn:
+    def native(self) -> native_updates.DistributionUpdateFn:  # type: ignore[override]
         """The native rule a wrapper runs (with this function's scheduler, window included)."""
         rule = self._rule
         if (

@@ -36,6 +36,8 @@ class Binding:
             parameter of the same name, which is then read as the wrapper's ``transition_prob``.
         adopted: Attributes of the env you wrap that become views onto θ (default: the
             parameters, the derived ones and the table).
+        aliases: Other NS-Gym names of parameters (the Bridge's ``left_side_prob`` for
+            ``P_left``) -> the parameter name; readable like it.
         native_names: ns_pz θ field name -> NS-Gym name.
         readable: Every attribute an NS-Gym wrapper's ``unwrapped`` shows.
     """
@@ -48,13 +50,14 @@ class Binding:
     derived: tuple[str, ...] = ()
     table_attribute: str | None = None
     adopted: tuple[str, ...] = ()
+    aliases: Mapping[str, str] = field(default_factory=dict)
     native_names: Mapping[str, str] = field(init=False)
     readable: frozenset[str] = field(init=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "native_names", {v: k for k, v in self.names.items()})
         table = () if self.table_attribute is None else (self.table_attribute,)
-        readable = frozenset((*self.names, *self.derived, *table))
+        readable = frozenset((*self.names, *self.aliases, *self.derived, *table))
         object.__setattr__(self, "readable", readable)
         if not self.adopted:
             object.__setattr__(self, "adopted", tuple(sorted(readable)))
@@ -160,6 +163,7 @@ SPLIT_BRIDGE = Binding(
     "Bridge-v0",
     table_attribute="transition_matrix",
     adopted=("theta",),
+    aliases={"left_side_prob": "P_left", "right_side_prob": "P_right"},
 )
 
 GRID_DEFAULTS: dict[str, dict[str, list[float]]] = {

@@ -9,19 +9,22 @@ extra (``pip install "ns_pz[ray]"``) and is imported only when chosen.
 from __future__ import annotations
 
 import contextlib
+import multiprocessing
 import os
+import signal
 import tempfile
 from abc import ABC, abstractmethod
 from collections.abc import Generator, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from concurrent.futures.process import BrokenProcessPool
+from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
 import ns_pz
 from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.trials import Trial, error_row, run_trial
-from ns_pz.workers import new_pool, stop_pool
+from ns_pz.workers import die_with_parent, new_pool, stop_pool
 
 BACKENDS = ("local", "ray")
 
@@ -35,12 +38,21 @@ class Backend(ABC):
 
 
 class LocalBackend(Backend):
-    """A pool of ``workers`` processes on this machine (``workers=1``: in this process).
+    """A pool of ``workers`` processes on this machine.
 
-    Workers are started with ``spawn`` (no state inherited from the parent) and end themselves if
-    the parent dies. If a worker dies (killed, out of memory, a crash in compiled code), the
-    trials that were in flight are re-run one at a time in a fresh process, so only the one
-    that kills its worker again is recorded as an error; the pool restarts for the rest.
+    Trials never run in the calling process, not even with one worker: a trial that kills its
+    process (a crash in compiled code, an out-of-memory kill, an agent's ``os._exit``) must not
+    take the run with it. Workers are started with ``spawn`` (no state inherited from the
+    parent) and end themselves if the parent dies. If a worker dies, the trials that were in
+    flight are re-run one at a time, each in a process of its own, so only the one that kills
+    its process again is recorded as an error, with how the process ended; the pool restarts
+    for the rest.
+
+    As with any ``spawn`` pool, a script that runs a spec must do so under
+    ``if __name__ == "__main__":`` (each worker imports the script again), and agents it
+    registers must be registered at its top level. Workers that end before they start (the
+    script ran the spec again while being imported) stop the run with a :class:`RuntimeError`
+    saying so, instead of failing every trial.
     """
 
     def __init__(self, workers: int) -> None:
@@ -49,18 +61,12 @@ class LocalBackend(Backend):
         self.workers = workers
 
     def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
-        """Run in-process for one worker, else in a process pool."""
-        if self.workers == 1:
-            for trial in trials:
-                yield trial, run_trial(spec, trial)
-            return
+        """Run in a process pool; a trial whose process dies becomes an error row."""
         remaining = list(trials)
         while remaining:
             remaining, suspects = yield from self._pool_run(spec, remaining, self.workers)
             for trial in suspects:  # one at a time, so only the culprit is blamed
-                _, lost = yield from self._pool_run(spec, [trial], 1)
-                for culprit in lost:
-                    yield culprit, error_row(spec, culprit, "its worker process died")
+                yield trial, run_alone(spec, trial)
 
     def _pool_run(
         self, spec: ExperimentSpec, trials: list[Trial], workers: int
@@ -70,7 +76,8 @@ class LocalBackend(Backend):
         Returns:
             ``(not started, in flight when the pool broke)``: both empty after a clean run.
         """
-        pool = new_pool(workers)
+        started = multiprocessing.get_context("spawn").Event()
+        pool = new_pool(workers, started)
         pending: dict[Future[dict], Trial] = {}
         queue = list(reversed(trials))
         clean = False
@@ -90,12 +97,81 @@ class LocalBackend(Backend):
                         continue
                     yield pending.pop(future), future.result()
                 if broken:
+                    if not started.is_set():
+                        raise RuntimeError(_CANNOT_START.format(how="before they started"))
                     # A worker died: which in-flight trial killed it cannot be known here.
                     return list(reversed(queue)), list(pending.values())
             clean = True
         finally:
             stop_pool(pool, clean)  # interrupted or broken: the workers stop now
         return [], []
+
+
+def run_alone(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
+    """Run one trial in a fresh process of its own; its row, or an error row if it died.
+
+    The error row says how the process ended (the signal that killed it, or its exit code).
+    """
+    context = multiprocessing.get_context("spawn")
+    receiver, sender = context.Pipe(duplex=False)
+    process = context.Process(
+        target=_run_and_send, args=(spec, trial, sender, os.getpid()), daemon=True
+    )
+    process.start()
+    sender.close()  # the child holds the only writing end: EOF when it dies
+    clean = False
+    try:
+        started = row = None
+        with contextlib.suppress(EOFError):
+            started = receiver.recv()
+            row = receiver.recv()
+        process.join()
+        clean = True
+    finally:
+        receiver.close()
+        if not clean:  # interrupted: the child stops now
+            process.terminate()
+            process.join()
+    if started is None:
+        how = f"before it started ({_how_it_ended(process.exitcode)})"
+        raise RuntimeError(_CANNOT_START.format(how=how))
+    if row is None:
+        return error_row(spec, trial, died_message(process.exitcode))
+    return row
+
+
+_CANNOT_START = (
+    "the worker processes ended {how}, so no trial can run. Workers are started with spawn, "
+    "which imports the script that called run_spec again: put that call under "
+    "`if __name__ == '__main__':` (their own error is on stderr above)"
+)
+
+
+def _run_and_send(spec: ExperimentSpec, trial: Trial, sender: Connection, parent: int) -> None:
+    """Child of :func:`run_alone`: say it started, run the trial, send its row back."""
+    die_with_parent(parent)
+    sender.send("started")
+    sender.send(run_trial(spec, trial))
+    sender.close()
+
+
+def died_message(exitcode: int | None) -> str:
+    """The error of a trial whose worker process ended without reporting, from its exit code."""
+    return (
+        f"its worker process died ({_how_it_ended(exitcode)}) while running this trial, "
+        "without reporting a result: a crash in compiled code, an out-of-memory kill, or the "
+        "agent ending the process (os._exit, a signal)"
+    )
+
+
+def _how_it_ended(exitcode: int | None) -> str:
+    """``"killed by signal SIGSEGV"`` or ``"exited with code 3"``."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"killed by signal {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exited with code {exitcode}"
 
 
 class RayBackend(Backend):

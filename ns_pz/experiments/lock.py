@@ -51,14 +51,14 @@ def locked(directory: str | Path) -> Iterator[None]:
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
     try:
         if not _try_lock(fd):
-            holder = _read_pid(fd)
-            raise DirectoryLocked(
-                f"{root} is in use by another run (PID {holder}); wait for it to end, or use "
-                "another --out directory"
-            )
+            raise _locked_error(root, _read_pid(fd))
         os.ftruncate(fd, 0)
         os.lseek(fd, 0, os.SEEK_SET)
         os.write(fd, f"{os.getpid()}\n".encode())
+    except OSError as error:  # a full disk: name the file
+        os.close(fd)
+        reason = error.strerror or str(error)
+        raise OSError(error.errno, f"cannot write the lock file {path}: {reason}") from error
     except BaseException:
         os.close(fd)
         raise
@@ -68,6 +68,37 @@ def locked(directory: str | Path) -> Iterator[None]:
     finally:
         fd, depth = _HELD.pop(root)
         os.close(fd)  # closing the file releases the lock
+
+
+def refuse_if_locked(directory: str | Path) -> None:
+    """Raise :class:`DirectoryLocked` if another process holds ``directory``'s lock.
+
+    Creates nothing. For a check that is about to refuse the directory for another reason
+    (results already there): a run in progress is the reason to name, not ``--resume``.
+
+    Raises:
+        DirectoryLocked: Another process holds the lock; the message names the directory and
+            the holder's PID.
+    """
+    root = Path(directory).resolve()
+    if root in _HELD:
+        return
+    try:
+        fd = os.open(root / LOCK_NAME, os.O_RDWR)
+    except OSError:  # no lock file (never run), or not a directory: nobody holds it
+        return
+    try:
+        if not _try_lock(fd):
+            raise _locked_error(root, _read_pid(fd))
+    finally:
+        os.close(fd)  # releases the lock if the probe took it
+
+
+def _locked_error(root: Path, holder: str) -> DirectoryLocked:
+    return DirectoryLocked(
+        f"{root} is in use by another run (PID {holder}); wait for it to end, or use "
+        "another --out directory"
+    )
 
 
 def _read_pid(fd: int) -> str:

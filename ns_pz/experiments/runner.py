@@ -49,7 +49,9 @@ def run_spec(
         on_row: Called with each new row after it is stored.
 
     A trial whose file cannot be read (cut short) counts as not done and runs again; the file is
-    named on ``progress``. ``out`` is locked for the run (:mod:`ns_pz.experiments.lock`).
+    named on ``progress``, as is any file in ``trials/`` that the store did not name (ignored).
+    ``out`` is locked for the run (:mod:`ns_pz.experiments.lock`). Trials run in worker
+    processes (see ``backend``); one whose process dies is recorded as an error row.
 
     Raises:
         SpecError: ``out`` holds results of another spec, or of this one without ``resume``.
@@ -65,6 +67,8 @@ def run_spec(
         if progress is not None:
             for path, reason in store.unreadable():
                 progress.write(f"{path} is unreadable ({reason}); its trial runs again\n")
+            for path, reason in store.strays():
+                progress.write(f"{path} is ignored: {reason}\n")
         bar = None
         if progress is not None:
             label = f"{spec.name} ({spec.size})"

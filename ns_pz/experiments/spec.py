@@ -58,7 +58,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -88,6 +88,8 @@ SIZES = ("quick", "full")
 DETECTOR = "detector"
 """The notification column whose monitor is the spec's ``[monitor]``, not the oracle."""
 LEVEL_LABELS = {"none": "WON", "basic": "basic", "detailed": "WN", DETECTOR: "WD"}
+MAX_TRIALS = 1_000_000
+"""Most trials one spec may hold at one size: each is a file, and the runner lists them all."""
 
 _TOP_FIELDS = {
     "version",
@@ -194,6 +196,23 @@ class ExperimentSpec:
     first_seed: int
     monitor: MonitorSpec | None = None
 
+    RECORD_FIELDS: ClassVar[tuple[str, ...]] = (
+        "name",
+        "title",
+        "size",
+        "env",
+        "env_kwargs",
+        "params",
+        "change",
+        "notifications",
+        "settings",
+        "agents",
+        "episodes",
+        "horizon",
+        "first_seed",
+    )
+    """Fields of :meth:`to_dict` that :meth:`from_dict` and the reports read."""
+
     # -- identity ------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """Everything that determines the results (not where the spec was read from)."""
@@ -291,6 +310,11 @@ class ExperimentSpec:
             for index, setting in enumerate(self.settings())
             for level in self.notifications
         ]
+
+    def trial_count(self) -> int:
+        """How many trials the spec holds: each agent at each of its cells, once per seed."""
+        runs = len(self.settings()) * sum(len(agent.notifications) for agent in self.agents)
+        return runs * self.episodes
 
     def seeds(self) -> range:
         """The episode seeds of every cell (the same for all agents: common random numbers)."""
@@ -426,7 +450,9 @@ def load_spec(name_or_path: str | Path, size: str = "quick") -> ExperimentSpec:
     if size not in SIZES:
         raise SpecError(f"size={size!r}; allowed: {', '.join(SIZES)}")
     try:
-        raw = tomllib.loads(path.read_text())
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except UnicodeDecodeError as error:
+        raise SpecError(f"{path}: not UTF-8 text, as TOML must be: {error}") from None
     except tomllib.TOMLDecodeError as error:
         raise SpecError(f"{path}: not valid TOML: {error}") from None
     return _Checker(path).spec(raw, size)
@@ -453,6 +479,27 @@ class _Checker:
         for key in sorted(required - set(table)):
             raise self.fail(f"{where}.{key}" if where else key, "missing")
 
+    def data(self, field: str, value: Any) -> None:
+        """Refuse what a result record cannot hold, naming the key: NaN, an infinity, a date.
+
+        Raises:
+            SpecError: The first such value, with its key under ``field``.
+        """
+        if isinstance(value, Mapping):
+            for key, item in value.items():
+                self.data(f"{field}.{key}", item)
+        elif isinstance(value, list):
+            for i, item in enumerate(value):
+                self.data(f"{field}[{i}]", item)
+        elif isinstance(value, float) and not math.isfinite(value):
+            raise self.fail(field, f"{value!r} must be a finite number")
+        elif not isinstance(value, (str, int, float, bool)):
+            raise self.fail(
+                field,
+                f"{value!r} ({type(value).__name__}) must be a number, string, boolean, or a "
+                "list or table of them",
+            )
+
     def integer(self, field: str, value: Any, low: int) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
             raise self.fail(field, f"{value!r} must be an integer >= {low}")
@@ -473,6 +520,7 @@ class _Checker:
         env_id = self.env(raw["env"])
         env_kwargs = raw.get("env_kwargs", {})
         self.fields("env_kwargs", env_kwargs, set(env_kwargs), set())
+        self.data("env_kwargs", env_kwargs)
         params = raw.get("params", {})
         self.fields("params", params, set(params), set())
         try:
@@ -546,6 +594,16 @@ class _Checker:
         for setting in settings:
             if settings.count(setting) > 1:
                 raise self.fail("change.to", f"two settings are both labelled {setting!r}")
+        runs = len(settings) * sum(len(agent.notifications) for agent in checked)
+        for each in sizes:
+            trials = runs * sizes[each]["episodes"]
+            if trials > MAX_TRIALS:
+                raise self.fail(
+                    f"sizes.{each}.episodes",
+                    f"{sizes[each]['episodes']} episodes give {trials} trials ({runs} agent × "
+                    f"cell runs); a run stores one file per trial and takes at most "
+                    f"{MAX_TRIALS}: split it into several specs or use fewer episodes",
+                )
         return ExperimentSpec(**{**result.__dict__, "agents": checked})
 
     def env(self, env_id: Any) -> str:
@@ -589,8 +647,8 @@ class _Checker:
             )
         params = raw.get("params", {})
         self.fields("monitor.params", params, set(params), set())
+        self.data("monitor.params", params)
         try:
-            json.dumps(params, allow_nan=False)
             make_monitor(raw["name"], params)
         except (TypeError, ValueError) as error:
             raise self.fail("monitor", str(error)) from None
@@ -659,15 +717,10 @@ class _Checker:
                 entry.check_names(table)
             except ValueError as error:
                 raise self.fail(f"{where}.{field}", str(error)) from None
+        for table_name in ("params", *SIZES):  # every size, not only the one that runs now
+            self.data(f"{where}.{table_name}", raw.get(table_name, {}))
         hyper = _merged(common, raw.get(size, {}))
         field = f"{where}.{size}" if raw.get(size) else f"{where}.params"
-        try:
-            json.dumps(hyper, allow_nan=False)
-        except (TypeError, ValueError) as error:
-            raise self.fail(
-                field,
-                f"hyper-parameters must be numbers, strings, booleans or lists of them: {error}",
-            ) from None
         if entry.tabular_only and not is_tabular(probe_env.family):
             raise self.fail(
                 f"{where}.name",

@@ -15,7 +15,15 @@ from typing import Any
 
 from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.evaluation import run_episode
-from ns_pz.experiments.spec import LEVEL_LABELS, AgentSpec, Cell, ExperimentSpec, slug
+from ns_pz.experiments.spec import (
+    LEVEL_LABELS,
+    MAX_TRIALS,
+    AgentSpec,
+    Cell,
+    ExperimentSpec,
+    SpecError,
+    slug,
+)
 
 #: Columns of a result row, in order.
 COLUMNS = (
@@ -50,7 +58,18 @@ class Trial:
 
 
 def expand(spec: ExperimentSpec) -> list[Trial]:
-    """Every trial of ``spec``: cell × agent (at the levels it runs at) × seed, in table order."""
+    """Every trial of ``spec``: cell × agent (at the levels it runs at) × seed, in table order.
+
+    Raises:
+        SpecError: More than :data:`~ns_pz.experiments.spec.MAX_TRIALS` trials (checked before
+            any is built; :func:`~ns_pz.experiments.spec.load_spec` refuses such a spec too).
+    """
+    count = spec.trial_count()
+    if count > MAX_TRIALS:
+        raise SpecError(
+            f"{spec.name} at size {spec.size!r} holds {count} trials (episodes={spec.episodes}); "
+            f"a run takes at most {MAX_TRIALS}"
+        )
     trials = []
     for cell in spec.cells():
         for agent in spec.agents:

@@ -40,14 +40,27 @@ class PolicyMonitor(Monitor):
         self.policy = policy
         self.deterministic = flag("deterministic", deterministic)
         self._count = 0
+        self._family: EnvFamily | None = None
 
     def bind(self, family: EnvFamily, theta0: Params) -> None:
         """Learn the number of parameters (one flag each).
 
+        One instance serves any number of environments of one family (a vector of envs, the
+        game and its view), whatever their θ_0; as with the detectors, binding it to another
+        family is refused, since it would change the flag count under the environments already
+        using it.
+
         Raises:
             ValueError: The policy's own spaces (an SB3 model's) are not the monitor seat's for
-                ``family``.
+                ``family``, or it is bound to another family already.
         """
+        if self._family is not None:
+            if repr(family) == repr(self._family):
+                return
+            raise ValueError(
+                f"PolicyMonitor is bound to {self._family!r}; give {family!r} its own "
+                "PolicyMonitor instance"
+            )
         check_policy_spaces(
             self.policy,
             monitor_observation_space(family),
@@ -56,6 +69,7 @@ class PolicyMonitor(Monitor):
             " (was it trained on another environment?)",
         )
         self._count = len(family.params_cls.names())
+        self._family = family
 
     def notify(
         self,

@@ -269,6 +269,34 @@ def monitor_reward_of(monitor_reward: Any) -> MonitorRewardFn | None:
     return cast(MonitorRewardFn, monitor_reward)
 
 
+def monitor_reward_value(
+    monitor_reward: MonitorRewardFn, process: NSProcess, flags: tuple
+) -> float:
+    """Call a learning monitor's reward function and check what it gives.
+
+    Returns:
+        The reward as a float.
+
+    Raises:
+        TypeError: It returned something that is not a real number (a string, ``None``, a
+            complex number, an array).
+        ValueError: It returned NaN or an infinity, which would reach the learner unnoticed.
+    """
+    value = monitor_reward(process, flags)
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(
+            f"monitor_reward={monitor_reward!r} returned {value!r} "
+            f"({type(value).__name__}); it must return a finite real number"
+        )
+    reward = float(value)
+    if not math.isfinite(reward):
+        raise ValueError(
+            f"monitor_reward={monitor_reward!r} returned {value!r} at t={process.t}; it must "
+            "return a finite real number"
+        )
+    return reward
+
+
 def _check_times(name: str, times: Sequence[int], steps: int, first: int = 0) -> list[int]:
     result: list[int] = []
     for value in times:

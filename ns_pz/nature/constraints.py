@@ -132,8 +132,9 @@ def budget_fractions_left(
         spent: Change size charged to each parameter so far this episode (missing: 0).
 
     Returns:
-        ``(total, normalised, *per_parameter)``; 1.0 for a budget that does not exist, and for
-        a budget of 0 (nothing to spend, nothing spent).
+        ``(total, normalised, *per_parameter)``; 1.0 for a budget that does not exist (nothing
+        limits nature, as if nothing were spent of a budget), 0.0 for a budget of 0 (nature is
+        frozen, as if the budget were spent), so an observation tells the two apart.
     """
     total_budget = constraints.total_budget
     total = _fraction(total_budget, math.fsum(spent.values()))
@@ -259,8 +260,10 @@ def _normalized_spent(params_cls: type[Params], sizes: Mapping[str, float]) -> f
 
 
 def _fraction(budget: float | None, spent: float) -> float:
-    if not budget:
+    if budget is None:
         return 1.0
+    if budget == 0.0:
+        return 0.0
     return min(remaining(budget, spent) / budget, 1.0)
 
 

@@ -11,7 +11,8 @@ same in every other.
 * ``offset`` (one per flat θ element, field order): ``(θ - θ_0) / allowance``, how many per-step
   allowances each element has moved since reset;
 * ``budget`` (``2 + number of parameters``): the fraction left of the total budget, of the
-  normalised budget and of each parameter's own budget, 1.0 for a budget that does not exist;
+  normalised budget and of each parameter's own budget, in [0, 1]: 1.0 for a budget that does
+  not exist, 0.0 for a budget of 0 (nature frozen: nothing left, as for a spent budget);
 * ``budgeted``: 1.0 if any budget applies, else 0.0;
 * with ``observes_state=True``: the decision agent's state (Gymnasium's ``flatten`` of the base
   observation: one-hot for a grid cell) and its last action (flattened likewise; zeros before the
@@ -323,27 +324,52 @@ def _flat_values_of(space: spaces.Space[Any], clip: bool = False) -> Callable[[A
 
     Boxes and ``Discrete`` (one-hot) directly, at a fraction of ``flatten``'s dispatch; other
     spaces through ``flatten``. With ``clip``, a Box's values are clipped into its bounds (the
-    agent's last action: the dynamics clip one out of bounds, as Gymnasium's do).
+    agent's last action: the dynamics clip one out of bounds, as Gymnasium's do). The functions
+    are instances of module-level classes, not closures, so an interface (and every game, view
+    and seat holding one) can be pickled.
     """
     if isinstance(space, spaces.Box):
-        dtype = space.dtype
-        lows, highs = space.low.ravel().tolist(), space.high.ravel().tolist()
-
-        def box_values(x: Any) -> list[Any]:
-            values = np.asarray(x, dtype).ravel().tolist()
-            if not clip:
-                return values
-            bounds = zip(values, lows, highs, strict=True)
-            return [lo if v < lo else hi if v > hi else v for v, lo, hi in bounds]
-
-        return box_values
+        return _BoxValues(space, clip)
     if isinstance(space, spaces.Discrete):
-        size, start = int(space.n), int(space.start)
+        return _OneHot(space)
+    return _Flattened(space)
 
-        def one_hot(x: Any) -> list[Any]:
-            values = [0] * size
-            values[int(x) - start] = 1
+
+class _BoxValues:
+    """A Box element as a flat list of Python numbers, optionally clipped into the Box."""
+
+    def __init__(self, space: spaces.Box, clip: bool) -> None:
+        self.dtype = space.dtype
+        self.clip = clip
+        self.lows = space.low.ravel().tolist()
+        self.highs = space.high.ravel().tolist()
+
+    def __call__(self, x: Any) -> list[Any]:
+        values = np.asarray(x, self.dtype).ravel().tolist()
+        if not self.clip:
             return values
+        bounds = zip(values, self.lows, self.highs, strict=True)
+        return [lo if v < lo else hi if v > hi else v for v, lo, hi in bounds]
 
-        return one_hot
-    return lambda x: np.asarray(spaces.flatten(space, x)).ravel().tolist()
+
+class _OneHot:
+    """A ``Discrete`` element as its one-hot list."""
+
+    def __init__(self, space: spaces.Discrete) -> None:
+        self.size = int(space.n)
+        self.start = int(space.start)
+
+    def __call__(self, x: Any) -> list[Any]:
+        values = [0] * self.size
+        values[int(x) - self.start] = 1
+        return values
+
+
+class _Flattened:
+    """Any other space's element through Gymnasium's ``flatten``."""
+
+    def __init__(self, space: spaces.Space[Any]) -> None:
+        self.space = space
+
+    def __call__(self, x: Any) -> list[Any]:
+        return np.asarray(spaces.flatten(self.space, x)).ravel().tolist()

@@ -4,8 +4,10 @@ Registered with Gymnasium as ``ns_pz_compat/Bridge-v0`` (NS-Gym's is ``ns_gym/Br
 separate namespace lets both packages be installed together). Unlike NS-Gym's, it draws its
 slips from the env's own seeded generator, so ``reset(seed=...)`` reproduces a run and
 ``gymnasium.utils.env_checker.check_env`` passes, and ``info`` is empty. Its slip vectors
-(``P``, or ``P_left`` and ``P_right``) are settable attributes, as in NS-Gym, and take effect at
-the next step; the dynamics are ns_pz's Bridge family under ``theta``.
+(``P``, or ``P_left`` and ``P_right``, also under their older names ``left_side_prob`` and
+``right_side_prob``) are settable attributes, as in NS-Gym, and take effect at the next step;
+``get_loc_based_prob((row, col))`` gives the one in force on a cell. The dynamics are ns_pz's
+Bridge family under ``theta``.
 """
 
 from __future__ import annotations
@@ -106,6 +108,38 @@ class Bridge(gym.Env[int, int]):
         self._set_slip("P_right", value)
 
     @property
+    def left_side_prob(self) -> list[float]:
+        """NS-Gym's older name of :attr:`P_left` (``split_probs=True`` only); settable like it."""
+        return self.P_left
+
+    @left_side_prob.setter
+    def left_side_prob(self, value: Sequence[float]) -> None:
+        self.P_left = value  # type: ignore[assignment]
+
+    @property
+    def right_side_prob(self) -> list[float]:
+        """NS-Gym's older name of :attr:`P_right` (``split_probs=True`` only); settable."""
+        return self.P_right
+
+    @right_side_prob.setter
+    def right_side_prob(self, value: Sequence[float]) -> None:
+        self.P_right = value  # type: ignore[assignment]
+
+    def get_loc_based_prob(self, coord: Sequence[int]) -> list[float]:
+        """The slip vector in force on the cell ``coord = (row, col)``.
+
+        Split (``split_probs=True``): ``P_left`` on the left half of the map (``col <
+        ncol // 2``), ``P_right`` on the right half, as in NS-Gym; otherwise ``P``, the one
+        slip vector of the whole map (NS-Gym returns its unused per-half copies there).
+
+        Raises:
+            ValueError: ``coord`` is not a ``(row, col)`` pair of integers on the map.
+        """
+        return slip_at(self.family, self.theta, coord)
+
+    get_loc_basedProb = get_loc_based_prob  # noqa: N815 - NS-Gym's first spelling, kept there
+
+    @property
     def transition_matrix(self) -> Table:
         """NS-Gym's table ``P[s][a] = [(prob, next_state, reward, terminated), ...]`` now."""
         return transition_table(self.family, self.theta)
@@ -156,3 +190,23 @@ class Bridge(gym.Env[int, int]):
         action = self.family.check_action(action)
         self.s, reward, terminated = self.family.step(self.s, action, self.theta, self.np_random)
         return self.s, float(reward), bool(terminated), False, {}
+
+
+def slip_at(family: BridgeFamily, theta: Params, coord: Sequence[int]) -> list[float]:
+    """The slip vector of ``theta`` that moves the agent on the cell ``coord = (row, col)``.
+
+    Raises:
+        ValueError: ``coord`` is not a ``(row, col)`` pair of integers on ``family``'s map.
+    """
+    try:
+        row, col = (int(x) for x in coord if float(x) == int(x))
+    except (TypeError, ValueError):
+        row = col = -1
+    if not (0 <= row < family.nrow and 0 <= col < family.ncol):
+        raise ValueError(
+            f"coord={coord!r} must be a (row, col) pair of integers on the "
+            f"{family.nrow}x{family.ncol} map"
+        )
+    state = row * family.ncol + col
+    field = family.slip_param_of(state) if isinstance(family, SplitBridgeFamily) else "slip"
+    return list(getattr(theta, field))

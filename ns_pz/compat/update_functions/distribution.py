@@ -171,7 +171,7 @@ class LCBoundedDistributionUpdate(UpdateDistributionFn):
         limit = self.L * abs(t - self.prev_time)
         return rule.bounded_update(tuple(param), t, n, self.rng, limit, self._memory)
 
-    def native(self) -> native_updates.DistributionUpdateFn:
+    def native(self) -> native_updates.DistributionUpdateFn:  # type: ignore[override]
         """The native rule (``L`` per firing; a wrapper fires it at most once per step).
 
         With a user scheduler subclass (its own ``_check``), a copy of this object instead.

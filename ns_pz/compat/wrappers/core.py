@@ -31,8 +31,15 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ns_pz.compat.attributes import CompatCore, adopt
-from ns_pz.compat.base import TUNABLE_PARAMS, Reward, UpdateDistributionFn, UpdateFn, explicit_seeds
+from ns_pz.compat.attributes import CompatCore, adopt, compat_core
+from ns_pz.compat.base import (
+    TUNABLE_PARAMS,
+    Reward,
+    UpdateDistributionFn,
+    UpdateFn,
+    explicit_seeds,
+    scheduler_seeds,
+)
 from ns_pz.compat.families import Binding, env_class_name, time_limit
 from ns_pz.compat.settings import check_base_env
 from ns_pz.errors import ResetNeeded
@@ -116,14 +123,17 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         level = "none"
         if change_notification:
             level = "detailed" if delta_change_notification else "basic"
-        core = CompatCore(
+        core = compat_core(
+            binding,
             family,
             params=theta0,
             nature=nature,
             notification=level,
             max_episode_steps=time_limit(env),
-            binding=binding,
+            nature_seeds=[seed for fn in tunable_params.values() for seed in scheduler_seeds(fn)],
         )
+        # NS-Gym's ``ns_env.unwrapped.observation_space`` is the base env's own space.
+        core.observation_space = env.unwrapped.observation_space
         super().__init__(core)
         adopt(env.unwrapped, core, binding)
         seeds = [seed for fn in tunable_params.values() for seed in explicit_seeds(fn)]
@@ -206,9 +216,9 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
         if self.persistent_params and process.started:
             options = {**(options or {}), "params": process.last_theta}
             process.carried_nature_memory = copy.deepcopy(process.nature_memory)
-        core_obs, _ = self.core.reset(seed=seed, options=options)
+        state, _ = self.core.reset(seed=seed, options=options)
         obs = {
-            "state": core_obs["state"],
+            "state": state,
             "env_change": dict(self._zeros_int),
             "delta_change": dict(self._zeros_float),
             "relative_time": 0,
@@ -356,7 +366,8 @@ class NSWrapper(gym.Wrapper[dict[str, Any], Any, dict[str, Any], Any]):
                     f"tunable_params[{name!r}]={fn!r} must be a distribution update function "
                     f"({name!r} is a probability vector), e.g. DistributionDecrementUpdate"
                 )
-            if not vector and not isinstance(fn, UpdateFn):
+            scalar = isinstance(fn, UpdateFn) and not isinstance(fn, UpdateDistributionFn)
+            if not vector and not scalar:
                 raise TypeError(
                     f"tunable_params[{name!r}]={fn!r} must be a scalar update function "
                     f"({name!r} is a number), e.g. IncrementUpdate"
