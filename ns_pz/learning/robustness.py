@@ -30,7 +30,7 @@ import numpy as np
 
 from ns_pz.checks import count
 from ns_pz.learning.rollouts import episode_returns
-from ns_pz.learning.statistics import Estimate, bootstrap, cvar, lower_quantile
+from ns_pz.learning.statistics import Estimate, bootstrap, cvar, decimals_for, lower_quantile
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.policies import Nature
 from ns_pz.nature.randomised import ThetaSet
@@ -136,17 +136,21 @@ class RobustnessReport:
         raise KeyError(f"no row {label!r}; rows: {[s.label for s in self.rows]}")
 
     def table(self) -> str:
-        """The summary as a Markdown table (value [low, high] per statistic)."""
+        """The summary as a Markdown table (value [low, high] per statistic).
+
+        Returns are shown with 3 decimals when every one lies below 10 in size, else 1.
+        """
         q = f"{self.alpha:g}"
         lines = [
             f"| condition | n | mean | worst | {q}-quantile | CVaR {q} |",
             "|---|---|---|---|---|---|",
         ]
+        largest = max(abs(v) for c in self.conditions for v in c.returns)
+        digits = decimals_for(largest)
         for s in self.rows:
-            worst = "" if s.worst is None else str(s.worst)
-            lines.append(
-                f"| {s.label} | {s.conditions} | {s.mean} | {worst} | {s.quantile} | {s.cvar} |"
-            )
+            worst = "" if s.worst is None else s.worst.format(digits)
+            cells = (s.mean.format(digits), worst, s.quantile.format(digits), s.cvar.format(digits))
+            lines.append(f"| {s.label} | {s.conditions} | " + " | ".join(cells) + " |")
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:

@@ -30,8 +30,17 @@ class Estimate:
     low: float
     high: float
 
+    def format(self, decimals: int) -> str:
+        """``value [low, high]`` with ``decimals`` digits after the point."""
+        return f"{self.value:.{decimals}f} [{self.low:.{decimals}f}, {self.high:.{decimals}f}]"
+
     def __str__(self) -> str:
-        return f"{self.value:.4g} [{self.low:.4g}, {self.high:.4g}]"
+        return self.format(decimals_for(abs(self.value)))
+
+
+def decimals_for(magnitude: float) -> int:
+    """Digits after the point that show a return of this size: 3 below 10, else 1."""
+    return 3 if magnitude < 10 else 1
 
 
 def lower_quantile(returns: np.ndarray, alpha: float) -> np.ndarray | float:
