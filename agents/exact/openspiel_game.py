@@ -11,7 +11,7 @@ it and brackets the value with two best responses:
 where ``π̄, ν̄`` are CFR's average strategies (the gap is OpenSpiel's NashConv and shrinks as
 CFR runs). Each step is played as nature's move, then the agent's, then chance's; the agent's
 information state does not include nature's move at this step, which makes the two moves
-simultaneous as in the game (DESIGN.md). The agent's information state is its own history of
+simultaneous as in ns_pz's game. The agent's information state is its own history of
 states and actions, plus at ``basic`` whether θ changed behind each past transition and at
 ``detailed`` θ_{t-1} itself (nature's past grid indices). Nature's is its own past moves and, by
 default, the agent's states.

@@ -32,7 +32,7 @@ from sphinx.util import logging
 
 logger = logging.getLogger(__name__)
 
-# The layers of DESIGN.md, in reading order: (title, blurb, module-name rules). A module belongs
+# The package's layers (imports point down only), in reading order: (title, blurb, module-name rules). A module belongs
 # to the first layer with a rule equal to its name or a prefix of it followed by a dot.
 LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     (
