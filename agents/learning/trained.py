@@ -22,6 +22,7 @@ from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
 from ns_pz.agents.learning.features import feature_size
 
 from ns_pz import __version__
+from ns_pz.extras import require
 from ns_pz.views import NSGymEnv
 from ns_pz.workers import new_pool, stop_pool
 
@@ -83,15 +84,10 @@ def torch_module(name: str) -> Any:
     """``ns_pz.agents.learning.<name>``, a module that imports torch.
 
     Raises:
-        ImportError: torch is not installed (the message says how to install it).
+        MissingExtra: torch is not installed (an ``ImportError`` naming the ``learn`` extra).
     """
-    try:
-        return importlib.import_module(f"ns_pz.agents.learning.{name}")
-    except ImportError as error:
-        raise ImportError(
-            f"training needs torch ({error}); on a CPU-only machine: "
-            "pip install torch==2.13.0 && pip install 'ns_pz[learn]'"
-        ) from None
+    require("torch", f"the learning agents' {name} (training or fine-tuning a network)")
+    return importlib.import_module(f"ns_pz.agents.learning.{name}")
 
 
 def ddqn_needed(env: NSGymEnv, args: DDQNArgs) -> Needed:
