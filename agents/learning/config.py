@@ -1,10 +1,10 @@
 """Hyper-parameters of the learners (numpy-free of torch: specs and the catalog check them).
 
-Each learner's settings are one frozen ``Args`` dataclass with a docstring per field, as in
-cleanrl. Fields left ``None`` take the value the NS-Gym paper used for the environment
-family (:data:`DDQN_HIDDEN`, :data:`ALPHAZERO_PAPER`) when the learner is bound to an environment (:meth:`for_family`).
-Defaults are the quick size (seconds of training on two cores); the shipped specs' ``full``
-size sets the paper-sized budgets.
+Each learner's settings are one frozen ``Args`` dataclass with a docstring per field, as in cleanrl.
+Fields left ``None`` take the value the NS-Gym paper used for the environment family
+(:data:`DDQN_HIDDEN`, :data:`ALPHAZERO_PAPER`) when the learner is bound to an environment
+(:meth:`for_family`). Defaults are the quick size (seconds of training on two cores); the shipped
+specs' ``full`` size sets the paper-sized budgets.
 """
 
 from __future__ import annotations
