@@ -36,12 +36,19 @@ class Episode:
     alarm_times: tuple[int, ...] = ()
 
 
-def run_episode(env: gym.Env[Any, Any], agent: Agent, seed: int) -> Episode:
+def run_episode(
+    env: gym.Env[Any, Any],
+    agent: Agent,
+    seed: int,
+    stop: Callable[[int], bool] | None = None,
+) -> Episode:
     """Play one episode; the environment and the agent are both seeded from ``seed``.
 
     ``env`` is an ns_pz view, bare or wrapped (``gym.make``'s stack: it is stepped through its
     wrappers, and the view beneath gives the planning model and the ground truth). The agent
     gets a planning model every step if it asks for one (:attr:`Agent.needs_model`).
+    ``stop``, if given, is called after every transition with the transitions so far; True ends
+    the play there, before the episode's end (``bench estimate`` caps its timing this way).
 
     Raises:
         TypeError: ``env`` is not an ns_pz view.
@@ -63,7 +70,7 @@ def run_episode(env: gym.Env[Any, Any], agent: Agent, seed: int) -> Episode:
         if observation["env_change"].any():
             alarms.append(length)
         length += 1
-        done = terminated or truncated
+        done = terminated or truncated or (stop is not None and stop(length))
     return Episode(seed, total, length, view.ground_truth().change_times, tuple(alarms))
 
 

@@ -2,7 +2,7 @@
 
 Measured in one run on one machine:
 
-* one UCT decision at the paper's settings (ALGORITHMS.md §1.3): FrozenLake (m=100, d=100,
+* one UCT decision at the NS-Gym paper's settings: FrozenLake (m=100, d=100,
   γ=0.99, slip 0.7/0.15/0.15), CliffWalking (m=1000, d=200, γ=0.999, goal reward 100,
   deterministic) and CartPole (m=300, d=500, γ=0.5); ns_pz compiled (numba), ns_pz reference
   (pure Python) and, with ``ns_gym`` importable, NS-Gym's ``MCTS`` on its planning env. Each

@@ -5,6 +5,7 @@ pages and the API pages are generated from the code by ``_ext/ns_pz_docs.py``; t
 ``tutorials/`` are executed by sphinx-gallery on every build.
 """
 
+import logging
 import os
 import sys
 from pathlib import Path
@@ -15,6 +16,35 @@ matplotlib.use("Agg")
 sys.path.insert(0, str(Path(__file__).parent / "_ext"))
 # Tutorials run numba-compiled search; keep its cache inside the build, not in site-packages.
 os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(__file__).parent / "_build" / "numba-cache"))
+
+
+
+class _NoMystConfiguration(logging.Filter):
+    """Drops MyST's dump of its whole parser configuration (a 1,000-character line per build)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "myst v%s:" not in str(record.msg)
+
+
+logging.getLogger("sphinx.myst_parser.sphinx_ext.main").addFilter(_NoMystConfiguration())
+
+
+def _mujoco_warning(message: str) -> None:
+    """MuJoCo's warnings, less the deprecation of ``settotalmass``.
+
+    Gymnasium's v5 model files set it, and MuJoCo says so at every compile (the family pages
+    build every MuJoCo task); nothing these pages can change.
+    """
+    if "settotalmass" not in message:
+        print(f"MuJoCo warning: {message}", file=sys.stderr)
+
+
+try:
+    import mujoco
+
+    mujoco.set_mju_user_warning(_mujoco_warning)
+except ImportError:  # without the mujoco extra there are no MuJoCo pages
+    pass
 
 project = "ns_pz"
 author = "the ns_pz authors"

@@ -13,11 +13,13 @@ as ``env_change`` flags, with its estimate of the change in ``delta_change``.
   while θ = θ_0).
 
 The script prints when each change happened and when it was detected, scores the episodes with
-``detection_metrics``, and plots the CUSUM statistic against the true change time into a PNG:
-the path given as first argument, or ``ns_pz_detect_change.png`` in the temporary directory
-(needs matplotlib, ``pip install "ns_pz[plot]"``; no display needed).
+``detection_metrics``, and plots the CUSUM statistic against the true change time into a PNG: the
+path given as first argument, or a new file ``ns_pz_detect_change_*.png`` in the temporary
+directory, never one that exists already (needs matplotlib, ``pip install "ns_pz[plot]"``; no
+display needed).
 """
 
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -143,8 +145,12 @@ def main() -> None:
         unique = dict(zip(labels, handles, strict=True))
         ax.legend(unique.values(), unique.keys(), fontsize="small")
     fig.tight_layout()
-    default = Path(tempfile.gettempdir()) / "ns_pz_detect_change.png"
-    path = Path(sys.argv[1]) if len(sys.argv) > 1 else default
+    if len(sys.argv) > 1:
+        path = Path(sys.argv[1])
+    else:  # a file of our own: a fixed name in a shared folder could be anyone's, or a link
+        handle, name = tempfile.mkstemp(prefix="ns_pz_detect_change_", suffix=".png")
+        os.close(handle)
+        path = Path(name)
     fig.savefig(path, dpi=110)
     print(f"plot: {path}")
 

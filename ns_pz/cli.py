@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib.util
 import os
+import shutil
 import signal
 import sys
 from collections.abc import Callable, Sequence
@@ -34,11 +36,41 @@ if TYPE_CHECKING:
     from ns_pz.experiments.store import ResultStore
 
 EXIT_OK, EXIT_FAILED_TRIALS, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+#: What an interrupted command leaves, by command.
+INTERRUPTED = {
+    "run": "finished trials are saved; the same command with --resume continues",
+    "train": "networks finished so far are cached; train again to continue",
+    "estimate": "nothing was saved (an estimate keeps nothing)",
+    "envs": "nothing was saved",
+    "table": "nothing was saved",
+    "plot": "figures written so far are kept",
+    "list": "nothing was saved",
+}
 PAPER = "paper"
+
+DESCRIPTION = (
+    "The ns-pz command: run the NS-Gym paper's benchmark, report it, list what is available."
+)
+SIZE_HELP = (
+    "quick: a smaller run of every table (the specs' quick episodes, horizons, search iterations "
+    "and training budgets; minutes on a few cores); full: the paper's sizes (100 episodes per "
+    "cell; hours). Default: %(default)s"
+)
+BACKEND_HELP = (
+    "local: worker processes on this machine; ray: a Ray cluster (the ray extra; --address "
+    "names it, else Ray starts locally). Default: %(default)s"
+)
+MUJOCO_NOTE = (
+    "(the eleven MuJoCo tasks, ns_pz/InvertedPendulum-v0 ... ns_pz/HumanoidStandup-v0, are "
+    'listed here once the mujoco extra is installed: pip install "ns_pz[mujoco]")'
+)
 
 
 def list_envs(out: Callable[[str], None] = print) -> None:
-    """Print every registered environment with its parameters, defaults and bounds."""
+    """Print every registered environment with its parameters, defaults and bounds.
+
+    Without the ``mujoco`` extra a last line says that the MuJoCo tasks exist and how to get them.
+    """
     for env_id in registered_envs():
         env_spec = spec(env_id)
         out(f"{env_id}  (time limit {env_spec.max_episode_steps}): {env_spec.description}")
@@ -48,6 +80,8 @@ def list_envs(out: Callable[[str], None] = print) -> None:
                 f"    {param.name:10s} default {param.default!r}{unit}, allowed {param.allowed()}"
                 f"  - {param.doc}"
             )
+    if importlib.util.find_spec("mujoco") is None:  # the registry adds them only with it
+        out(MUJOCO_NOTE)
 
 
 def show_envs(args: argparse.Namespace, out: Callable[[str], None]) -> int:
@@ -89,7 +123,12 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         if targets.count(target) > 1:
             raise SpecError(f"two of the specs would write to {target}; name each spec once")
     for experiment, target in zip(specs, targets, strict=True):
-        ResultStore(target).check(experiment, args.resume)  # writes nothing
+        try:
+            ResultStore(target).check(experiment, args.resume)  # writes nothing
+        except SpecError as error:
+            if args.resume or not (target / "spec.json").is_file():
+                raise
+            raise SpecError(f"{error} (its tables again: ns-pz bench table {target})") from None
     failed = 0
     with contextlib.ExitStack() as held:  # one run per directory, from the check to the end
         for experiment, target in zip(specs, targets, strict=True):
@@ -98,7 +137,7 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         for experiment, target in zip(specs, targets, strict=True):
             summary = run_spec(experiment, target, backend, resume=args.resume, progress=sys.stderr)
             failed += summary.failed
-            out(f"\n{_tables(target, 'markdown')}\n")
+            out(f"\n{_tables(target, 'markdown', _terminal_width())}\n")
             out(
                 f"({summary.ran} trials run, {summary.skipped} already done, {summary.failed} "
                 f"failed; results in {target}/results.csv)"
@@ -106,7 +145,14 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     return EXIT_FAILED_TRIALS if failed else EXIT_OK
 
 
-def _tables(run_dir: Path, fmt: str) -> str:
+def _terminal_width() -> int | None:
+    """The terminal's width when stdout is one (tables are split to fit), else ``None``."""
+    if not sys.stdout.isatty():
+        return None
+    return max(40, shutil.get_terminal_size().columns)
+
+
+def _tables(run_dir: Path, fmt: str, width: int | None = None) -> str:
     from ns_pz.experiments.optimum import optimum_for
     from ns_pz.experiments.report import table
     from ns_pz.experiments.store import ResultStore
@@ -115,7 +161,8 @@ def _tables(run_dir: Path, fmt: str) -> str:
     record = store.spec_record()
     title = f"{record['spec']['title']} [{record['name']}, {record['spec']['size']}]"
     _report_unreadable(store)
-    return table(store.rows(), title, fmt, optimum_for(record["spec"]), record["spec"])
+    spec_record = record["spec"]
+    return table(store.rows(), title, fmt, optimum_for(spec_record), spec_record, width=width)
 
 
 def _report_unreadable(store: ResultStore) -> None:
@@ -153,14 +200,20 @@ def _each_run(root: Path, report_fn: Callable[[Path], None]) -> int:
 
 def bench_table(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench table``: the tables of every run under DIR."""
-    return _each_run(Path(args.dir), lambda run_dir: out(_tables(run_dir, args.format) + "\n"))
+    width = _terminal_width() if args.width is None else (args.width or None)
+    return _each_run(
+        Path(args.dir), lambda run_dir: out(_tables(run_dir, args.format, width) + "\n")
+    )
 
 
 def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
-    """``bench plot``: PNG figures into each run's ``plots/`` folder."""
+    """``bench plot``: figures into each run's ``plots/`` folder, or into ``--out``."""
     from ns_pz.experiments.optimum import optimum_for
     from ns_pz.experiments.report import plot
     from ns_pz.experiments.store import ResultStore
+
+    run_dirs = _run_dirs(Path(args.dir))
+    figsize = _figsize(args.figsize)
 
     def plot_run(run_dir: Path) -> None:
         store = ResultStore(run_dir)
@@ -168,52 +221,90 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         _report_unreadable(store)
         spec_record = record["spec"]
         optimum = optimum_for(spec_record)
+        target = run_dir / "plots"
+        if args.out is not None:  # one folder per run inside it when there are several
+            target = Path(args.out) / run_dir.name if len(run_dirs) > 1 else Path(args.out)
         for path in plot(
-            store.rows(), spec_record["title"], run_dir / "plots", spec_record, optimum
+            store.rows(),
+            spec_record["title"],
+            target,
+            spec_record,
+            optimum,
+            fmt=args.format,
+            figsize=figsize,
+            dpi=args.dpi,
         ):
             out(str(path))
 
     return _each_run(Path(args.dir), plot_run)
 
 
+def _figsize(text: str | None) -> tuple[float, float] | None:
+    """``"10x4"`` as ``(10.0, 4.0)``; ``None`` stays ``None``.
+
+    Raises:
+        ValueError: Not two positive numbers joined by ``x``.
+    """
+    if text is None:
+        return None
+    try:
+        width, height = (float(part) for part in text.lower().split("x"))
+    except ValueError:
+        width = height = 0.0
+    if not (width > 0 and height > 0):
+        raise ValueError(f"--figsize={text!r} must be WIDTHxHEIGHT in inches, e.g. 10x4")
+    return width, height
+
+
 def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
-    """``bench estimate``: time a few seeds of every cell, project the whole run."""
+    """``bench estimate``: time a little training and a few capped trials; project the run."""
+    from ns_pz.agents.learning.artefacts import cache_dir
     from ns_pz.experiments import load_spec
-    from ns_pz.experiments.runner import estimate, train_artefacts
-    from ns_pz.experiments.trials import expand
+    from ns_pz.experiments.estimate import estimate, estimate_training, plan, stand_in_cache
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
-    training: dict[str, float] = {}  # by key: specs with the same θ_0 share a network
-    for experiment in specs:  # trained once, in the driver, before any trial
-        for trained in train_artefacts(experiment, expand(experiment), sys.stderr, args.workers):
-            if trained.key in training:
-                continue
-            if trained.trained_now:
-                training[trained.key] = trained.seconds
-                out(f"training: {trained.label}: {trained.seconds:.1f} s")
-            else:  # a run here would load it: not part of the projection
-                training[trained.key] = 0.0
-                out(f"training: {trained.label}: cached (trained in {trained.seconds:.1f} s)")
-    grand = grand_cpu = 0.0
-    out(
-        "| spec | setting | notification | agent | s/trial | CPU s/trial | trials "
-        "| projected s (1 core) |"
-    )
-    out("|---|---|---|---|---|---|---|---|")
-    for experiment in specs:
-        for cost in estimate(experiment, args.samples, progress=sys.stderr):
-            grand += cost.total_seconds
-            grand_cpu += cost.total_cpu_seconds
-            out(
-                f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} | "
-                f"{cost.seconds_per_trial:.3f} | {cost.cpu_seconds_per_trial:.3f} | "
-                f"{cost.trials} | {cost.total_seconds:.0f} |"
-            )
+    out(plan(specs, args.samples, args.cell_seconds, args.probe_seconds).text())
+    user_cache = cache_dir()
+    with stand_in_cache() as stand_ins:  # the user's cache is only read
+        networks, stand_in_agents = estimate_training(
+            specs, stand_ins, user_cache, args.probe_seconds, sys.stderr
+        )
+        for network in networks:
+            if network.cached:  # a run here would load it: not part of the projection
+                out(f"training: {network.label}: cached (trained in {network.seconds:.1f} s)")
+            else:
+                out(
+                    f"training: {network.label}: projected {network.seconds:.0f} s (timed "
+                    f"{network.timed:,} of {network.total:,} {network.unit})"
+                )
+        grand = grand_cpu = 0.0
+        out(
+            "| spec | setting | notification | agent | s/trial | CPU s/trial | trials "
+            "| projected s (1 core) |"
+        )
+        out("|---|---|---|---|---|---|---|---|")
+        for experiment in specs:
+            labels = {label for name, label in stand_in_agents if name == experiment.name}
+            for cost in estimate(
+                experiment, args.samples, sys.stderr, args.cell_seconds, at_horizon=labels
+            ):
+                grand += cost.total_seconds
+                grand_cpu += cost.total_cpu_seconds
+                at = "≤ " if cost.at_horizon else ""
+                out(
+                    f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} "
+                    f"| {at}{cost.seconds_per_trial:.3f} | {at}{cost.cpu_seconds_per_trial:.3f} "
+                    f"| {cost.trials} | {at}{cost.total_seconds:.0f} |"
+                )
     workers = args.workers
-    trained = sum(training.values()) / workers  # distinct networks train in parallel
+    trained = sum(n.seconds for n in networks if not n.cached) / workers  # in parallel
     wall, wall_cpu = trained + grand / workers, trained + grand_cpu / workers
     out(
-        f"\nprojected wall time on {workers} worker(s): {wall:.0f} s ({wall / 3600:.2f} h) at "
+        "\n≤: an episode cut at --cell-seconds, or played by a partly trained stand-in network, "
+        "projected from its time per step to the horizon (an upper bound)."
+    )
+    out(
+        f"projected wall time on {workers} worker(s): {wall:.0f} s ({wall / 3600:.2f} h) at "
         f"this machine's present load; {wall_cpu:.0f} s ({wall_cpu / 3600:.2f} h) on idle cores "
         f"(from CPU time); of which training {trained:.0f} s; from {args.samples} sampled "
         f"seed(s) per cell"
@@ -252,9 +343,11 @@ def bench_list(args: argparse.Namespace, out: Callable[[str], None]) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
+    from ns_pz.experiments.estimate import CELL_SECONDS, PROBE_SECONDS
+
     parser = argparse.ArgumentParser(
         prog="ns-pz",
-        description=__doc__.splitlines()[0],
+        description=DESCRIPTION,
         epilog="Exit codes: 0 ok, 1 some trials failed, 2 usage error, 130 interrupted.",
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
@@ -265,8 +358,8 @@ def _parser() -> argparse.ArgumentParser:
 
     run = actions.add_parser("run", help="run specs (shipped names, files, or 'paper' for all)")
     run.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
-    run.add_argument("--size", choices=("quick", "full"), default="quick")
-    run.add_argument("--backend", choices=("local", "ray"), default="local")
+    run.add_argument("--size", choices=("quick", "full"), default="quick", help=SIZE_HELP)
+    run.add_argument("--backend", choices=("local", "ray"), default="local", help=BACKEND_HELP)
     run.add_argument("--address", default=None, help="Ray cluster address (default: start Ray)")
     run.add_argument(
         "--workers",
@@ -279,18 +372,63 @@ def _parser() -> argparse.ArgumentParser:
 
     show = actions.add_parser("table", help="print the tables of a results directory")
     show.add_argument("dir", help="a run directory, or a folder of them")
-    show.add_argument("--format", choices=("markdown", "latex"), default="markdown")
+    show.add_argument(
+        "--format", choices=("markdown", "latex"), default="markdown", help="default: %(default)s"
+    )
+    show.add_argument(
+        "--width",
+        type=int,
+        default=None,
+        help="split a Markdown table wider than this many characters into parts (0: never; "
+        "default: the terminal's width when printing to one, else never)",
+    )
 
-    figures = actions.add_parser("plot", help="write PNG figures of a results directory")
+    figures = actions.add_parser("plot", help="write figures of a results directory")
     figures.add_argument("dir", help="a run directory, or a folder of them")
+    figures.add_argument(
+        "--out",
+        default=None,
+        help="folder for the figures (default: each run's plots/ folder; with several runs, "
+        "one subfolder per run)",
+    )
+    figures.add_argument(
+        "--format", choices=("png", "pdf", "svg"), default="png", help="default: %(default)s"
+    )
+    figures.add_argument(
+        "--figsize",
+        default=None,
+        metavar="WxH",
+        help="size of each figure in inches, e.g. 10x4 (default: from the agents and cells)",
+    )
+    figures.add_argument("--dpi", type=int, default=120, help="PNG resolution (default: 120)")
 
     cost = actions.add_parser(
         "estimate", help="time a few seeds of every cell and project the run's wall time"
     )
     cost.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
-    cost.add_argument("--size", choices=("quick", "full"), default="full")
-    cost.add_argument("--samples", type=int, default=2, help="seeds timed per cell")
-    cost.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="to project for")
+    cost.add_argument("--size", choices=("quick", "full"), default="full", help=SIZE_HELP)
+    cost.add_argument(
+        "--samples", type=int, default=2, help="seeds timed per cell (default: %(default)s)"
+    )
+    cost.add_argument(
+        "--cell-seconds",
+        type=float,
+        default=CELL_SECONDS,
+        help="cap on the seconds spent timing one agent in one cell; an episode cut at it is "
+        "projected to the horizon (default: %(default)s)",
+    )
+    cost.add_argument(
+        "--probe-seconds",
+        type=float,
+        default=PROBE_SECONDS,
+        help="seconds of training timed per network not in the cache (default: %(default)s)",
+    )
+    cost.add_argument(
+        "--workers",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="worker processes to project the run's wall time for (default: all cores)",
+    )
 
     actions.add_parser("list", help="list the shipped specs")
 
@@ -298,7 +436,7 @@ def _parser() -> argparse.ArgumentParser:
         "train", help="train the networks the specs' learning agents use (cached per θ_0)"
     )
     trainer.add_argument("specs", nargs="+", metavar="SPEC", help="spec name or TOML file; 'paper'")
-    trainer.add_argument("--size", choices=("quick", "full"), default="quick")
+    trainer.add_argument("--size", choices=("quick", "full"), default="quick", help=SIZE_HELP)
     trainer.add_argument(
         "--workers", type=int, default=os.cpu_count() or 1, help="networks trained at once"
     )
@@ -316,6 +454,11 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
         parser.error(f"--workers={args.workers} must be >= 1")
     if action == "estimate" and args.samples < 1:
         parser.error(f"--samples={args.samples} must be >= 1")
+    if action == "estimate" and not min(args.cell_seconds, args.probe_seconds) > 0:
+        parser.error(
+            f"--cell-seconds={args.cell_seconds} and --probe-seconds={args.probe_seconds} "
+            "must be > 0"
+        )
     # Agents named "module:builder" may live in the working directory. It goes last on the
     # path, so a source checkout there never shadows the installed ns_pz (workers inherit it).
     if os.getcwd() not in sys.path:
@@ -339,9 +482,7 @@ def main(argv: Sequence[str] | None = None, out: Callable[[str], None] = print) 
         print(f"ns-pz: error: {error}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
-        print(
-            "\nns-pz: interrupted; finished trials are saved, --resume continues", file=sys.stderr
-        )
+        print(f"\nns-pz: interrupted; {INTERRUPTED[action]}", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
         signal.signal(signal.SIGTERM, previous)

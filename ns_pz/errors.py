@@ -30,3 +30,7 @@ class UnknownEnvironment(NSPZError, ValueError):
 
 class ResetNeeded(NSPZError, RuntimeError):
     """A call that needs a running episode: before the first reset, or after the episode ended."""
+
+
+class MissingExtra(NSPZError, ImportError):
+    """An optional dependency is not installed; the message names the ``ns_pz`` extra to install."""

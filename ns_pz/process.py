@@ -45,7 +45,7 @@ from ns_pz.monitor.monitors import Monitor, OracleMonitor
 from ns_pz.monitor.notification import NotificationLevel
 from ns_pz.nature.constraints import NatureConstraints, admit, remaining
 from ns_pz.nature.interface import DEFAULT_STEP, NatureInterface
-from ns_pz.nature.policies import Nature, Proposal, StaticNature
+from ns_pz.nature.policies import Nature, Proposal, ScriptedNature, StaticNature
 from ns_pz.observations import ObservationBuilder
 from ns_pz.params import Params
 
@@ -143,6 +143,14 @@ class NSProcess:
         if not isinstance(self.constraints, NatureConstraints):
             raise TypeError(f"constraints={constraints!r} must be a NatureConstraints")
         self.constraints.check_names(family.params_cls)
+        if isinstance(self.nature, ScriptedNature):
+            frozen = [name for name in self.nature.updates if not self.constraints.moves(name)]
+            if frozen:
+                raise ValueError(
+                    f"nature schedules {frozen}, which constraints.movable="
+                    f"{self.constraints.movable!r} freezes: add them to movable or drop their "
+                    "updates"
+                )
         if max_episode_steps is not None:
             if isinstance(max_episode_steps, bool) or not isinstance(
                 max_episode_steps, (int, np.integer)

@@ -1,8 +1,10 @@
 """The game under RLlib: nature and the decision agent (and optionally the monitor) as PPO policies.
 
-Needs the ``rllib`` extra (``ray[rllib]``, which pins Gymnasium 1.2.x, and torch; on a CPU-only
-machine install ``torch==2.13.0`` first). Ray is imported only inside the functions that need
-it, and nothing else in ns_pz imports this module.
+Needs the ``rllib`` extra (``ray[rllib]``, which pins Gymnasium 1.2.x, and torch; PyPI's Linux
+torch is the CUDA build: for the CPU-only wheel install torch first from
+``https://download.pytorch.org/whl/cpu``). Ray is imported only inside the functions that need
+it (without it they raise :class:`~ns_pz.errors.MissingExtra` naming the extra), and nothing
+else in ns_pz imports this module.
 
 RLlib's :class:`~ray.rllib.env.wrappers.pettingzoo_env.PettingZooEnv` turns an AEC game into a
 ``MultiAgentEnv`` (one agent acts per step: the one whose turn it is). Two things of
@@ -38,6 +40,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv
 
+from ns_pz.extras import require
 from ns_pz.game import NSGame
 from ns_pz.process import DECISION, MONITOR, NATURE
 
@@ -213,7 +216,7 @@ def env_creator(
                 "(in the game's arguments or env_config; without one the game pays the monitor "
                 "0 and it learns nothing)"
             )
-        from ray.rllib.env.wrappers.pettingzoo_env import PettingZooEnv
+        PettingZooEnv = _rllib("ray.rllib.env.wrappers.pettingzoo_env").PettingZooEnv
 
         game = ns_pz.make(env_id, **kwargs)
         return PettingZooEnv(GameForRLlib(game, scripted_monitor=scripted_monitor, flatten=flatten))
@@ -231,7 +234,7 @@ def register(env_id: str, **kwargs: Any) -> str:
         env_id: A registered id.
         **kwargs: As in :func:`env_creator`.
     """
-    from ray.tune.registry import register_env
+    register_env = _rllib("ray.tune.registry").register_env
 
     name = "ns_pz_rllib/" + env_id.split("/")[-1]
     register_env(name, env_creator(env_id, **kwargs))
@@ -271,9 +274,9 @@ def ppo_config(
     Returns:
         A ``ray.rllib.algorithms.ppo.PPOConfig``; ``config.build_algo()`` gives the algorithm.
     """
-    from ray.rllib.algorithms.ppo import PPOConfig
-    from ray.rllib.core.rl_module.multi_rl_module import MultiRLModuleSpec
-    from ray.rllib.core.rl_module.rl_module import RLModuleSpec
+    PPOConfig = _rllib("ray.rllib.algorithms.ppo").PPOConfig
+    MultiRLModuleSpec = _rllib("ray.rllib.core.rl_module.multi_rl_module").MultiRLModuleSpec
+    RLModuleSpec = _rllib("ray.rllib.core.rl_module.rl_module").RLModuleSpec
 
     name = register(env_id, scripted_monitor=scripted_monitor, flatten=flatten, **game_kwargs)
     seats = [NATURE, DECISION] if scripted_monitor else [NATURE, MONITOR, DECISION]
@@ -301,10 +304,15 @@ def _seat_policy(agent_id: Any, episode: Any, **kwargs: Any) -> str:
 def _connector(flatten: bool) -> dict[str, Any]:
     if flatten:
         return {}
-    from ray.rllib.connectors.env_to_module import FlattenObservations
+    FlattenObservations = _rllib("ray.rllib.connectors.env_to_module").FlattenObservations
 
     return {
         "env_to_module_connector": lambda env, spaces=None, device=None: FlattenObservations(
             multi_agent=True
         )
     }
+
+
+def _rllib(module: str) -> Any:
+    """``module`` of Ray, or a :class:`~ns_pz.errors.MissingExtra` naming the ``rllib`` extra."""
+    return require(module, "ns_pz.rllib", extra="rllib")

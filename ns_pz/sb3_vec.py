@@ -6,7 +6,8 @@ directly: ``step_wait`` is one batched step (``SAME_STEP`` autoreset, SB3's conv
 only the sub-envs whose episode just ended get a ``terminal_observation`` and
 ``TimeLimit.truncated`` in their info dict.
 
-Needs ``stable-baselines3`` (imported when this module is).
+Needs ``stable-baselines3`` (the ``learn`` extra), imported when this module is; without it the
+import raises :class:`~ns_pz.errors.MissingExtra` saying so.
 """
 
 from __future__ import annotations
@@ -16,9 +17,11 @@ from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+from ns_pz.extras import require
 from ns_pz.vector import NSVectorEnv
+
+VecEnv = require("stable_baselines3.common.vec_env.base_vec_env", "ns_pz.sb3_vec").VecEnv
 
 
 class SB3VecEnv(VecEnv):  # type: ignore[misc]  # SB3 is untyped here

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -21,6 +22,23 @@ def test_example_runs(script):
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip()
+    assert "settotalmass" not in out.stdout + out.stderr  # MuJoCo's deprecation, silenced
+
+
+def test_the_detection_example_writes_a_file_of_its_own(tmp_path):
+    """Without an argument the plot goes to a new file, never a fixed name anyone may hold."""
+    pytest.importorskip("matplotlib")
+    script = next(path for path in EXAMPLES if path.name == "detect_change.py")
+    fixed = tmp_path / "ns_pz_detect_change.png"
+    fixed.write_text("someone else's")
+    env = {**os.environ, "TMPDIR": str(tmp_path)}
+    out = subprocess.run(
+        [sys.executable, str(script)], capture_output=True, text=True, timeout=120, env=env
+    )
+    assert out.returncode == 0, out.stderr
+    written = Path(out.stdout.split("plot: ")[-1].strip())
+    assert written.parent == tmp_path and written != fixed and written.stat().st_size > 1000
+    assert fixed.read_text() == "someone else's"
 
 
 def test_the_migration_example_shows_equal_trajectories():

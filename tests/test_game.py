@@ -25,6 +25,9 @@ def quiet(count: int) -> dict:
     return {"env_change": np.zeros(count, np.int8), "delta_change": np.zeros(count, np.float32)}
 
 
+# PettingZoo's api_test resets with options={"options": 1} to see that an unknown option does
+# not crash; ns_pz warns that it ignores it, as it should for a user's typo. Expected here.
+@pytest.mark.filterwarnings("ignore:reset options \\['options'\\] are not understood:UserWarning")
 def test_api_test_with_an_adversarial_nature():
     """PettingZoo's api_test passes with nature moving every parameter every step."""
     game = ns_pz.make("ns_pz/FrozenLake-v0", nature=RandomNature(0.3), max_episode_steps=30)

@@ -82,7 +82,7 @@ def test_bad_learner_settings_fail_at_load(tmp_path):
         _spec(tmp_path, bad)
 
 
-def test_runner_trains_each_network_once_before_the_workers(tmp_path):
+def test_runner_trains_each_network_once_before_the_workers(tmp_path, capfd):
     """DDQN and PA-MCTS share one Q-network; with two workers each network is trained once."""
     spec = _spec(tmp_path)
     progress = io.StringIO()
@@ -90,6 +90,14 @@ def test_runner_trains_each_network_once_before_the_workers(tmp_path):
     assert summary.failed == 0 and summary.ran == len(expand(spec))
     log = progress.getvalue()
     assert log.count("trained DDQN") == 1 and log.count("trained AlphaZero") == 1
+    assert "learners: training 2 network(s)" in log
+    # Trained in two processes: each draws plain progress lines on its stderr.
+    trained = capfd.readouterr().err
+    assert "training DDQN" in trained and "1,500/1,500 steps" in trained and "ETA" in trained
+    assert "training AlphaZero" in trained and "2/2 episodes" in trained
+    progress = io.StringIO()  # all cached now: nothing to announce, nothing to draw
+    run_spec(spec, tmp_path / "again", LocalBackend(1), progress=progress)
+    assert "network(s)" not in progress.getvalue() and "training" not in progress.getvalue()
     assert len(list((cache_dir() / "ddqn").glob("*/manifest.json"))) == 1
     assert len(list((cache_dir() / "alphazero").glob("*/manifest.json"))) == 1
     again = train_artefacts(spec, expand(spec))
@@ -112,6 +120,8 @@ def test_train_command_builds_then_finds_the_networks(tmp_path):
     lines.clear()
     argv = ["bench", "estimate", str(path), "--samples", "1", "--workers", "2"]
     assert main(argv, lines.append) == 0
+    assert lines[0].startswith("estimate: 0 network(s) to train")
+    assert "(2 cached)" in lines[0]
     assert sum(line.startswith("training: ") for line in lines) == 2  # shared ones once
     # Both networks are cached: a run here loads them, so the projection has no training.
     assert sum(line.endswith("s)") and ": cached (trained in" in line for line in lines) == 2
@@ -145,7 +155,7 @@ def test_sigterm_during_parallel_training_stops_the_workers_at_once(tmp_path):
     )
     try:
         line = run.stderr.readline()  # the first: how many networks it trains
-        assert "needs 2 trained network(s)" in line, line
+        assert "learners: training 2 network(s)" in line, line
         time.sleep(6)  # the two workers are training now
         assert run.poll() is None
         run.send_signal(signal.SIGTERM)
@@ -156,3 +166,24 @@ def test_sigterm_during_parallel_training_stops_the_workers_at_once(tmp_path):
         assert not list((tmp_path / "cache").rglob("weights.npz"))  # nothing finished
     finally:
         run.kill()
+
+
+def test_estimate_times_training_for_seconds_and_leaves_the_cache_alone(tmp_path):
+    """Missing networks train for --probe-seconds only, as stand-ins in a temporary cache."""
+    from ns_pz.cli import main
+
+    path = tmp_path / "learners.toml"
+    path.write_text(SPEC.replace("total_steps = 1500", "total_steps = 400000"))
+    lines: list[str] = []
+    argv = ["bench", "estimate", str(path), "--samples", "1", "--probe-seconds", "1"]
+    assert main([*argv, "--cell-seconds", "0.5", "--workers", "1"], lines.append) == 0
+    assert lines[0].startswith("estimate: 2 network(s) to train timed for 1 s each (0 cached)")
+    ddqn = [line for line in lines if line.startswith("training: DDQN")]
+    assert len(ddqn) == 1 and "projected" in ddqn[0] and "of 400,000 steps)" in ddqn[0]
+    timed = int(ddqn[0].split("(timed ")[1].split(" of")[0].replace(",", ""))
+    assert 100 < timed < 400_000
+    projected = float(ddqn[0].split("projected ")[1].split(" s")[0])
+    assert projected > 2  # 400,000 steps take far more than the second timed
+    assert not cache_dir().exists()  # nothing trained into the user's cache
+    assert any("| ≤ " in line for line in lines if "| DDQN |" in line)  # a stand-in: horizon
+    assert "of which training" in lines[-1]

@@ -463,3 +463,44 @@ def test_constraints_keep_their_own_copy_of_a_mapping():
     seen = {constraints}
     limits["masspole"] = 0.5
     assert constraints in seen and constraints.lipschitz == {"masspole": 0.1}
+
+
+def test_movable_freezes_the_parameters_it_does_not_name():
+    """A proposal for a frozen parameter is dropped; the movable ones are projected as ever."""
+    theta = CartPoleParams()
+    frozen = NatureConstraints(movable=("length",), lipschitz={"length": 0.1})
+    new, sizes = admit(theta, {"length": 0.9, "gravity": 20.0, "masspole": 0.5}, frozen, {})
+    assert (new.gravity, new.masspole) == (theta.gravity, theta.masspole)
+    assert new.length == pytest.approx(theta.length + 0.1)
+    assert set(sizes) == {"length"}
+    assert frozen.moves("length") and not frozen.moves("gravity")
+    assert NatureConstraints().moves("gravity")
+    assert hash(frozen) == hash(NatureConstraints(movable=("length",), lipschitz={"length": 0.1}))
+    with pytest.raises(UnknownParam, match="lenght"):
+        NatureConstraints(movable=("lenght",)).check_names(CartPoleParams)
+
+
+@pytest.mark.parametrize(
+    ("movable", "error", "match"),
+    [
+        ("length", TypeError, r"movable='length' must be a tuple of parameter names"),
+        ((), ValueError, r"movable=\(\) freezes every parameter"),
+        (("length", "length"), ValueError, "names a parameter twice"),
+        ((1,), TypeError, r"movable=\(1,\) must be a tuple"),
+    ],
+)
+def test_movable_is_checked(movable: object, error: type, match: str) -> None:
+    """A bare string, nothing, a repeated name or a non-string is refused, naming the value."""
+    with pytest.raises(error, match=match):
+        NatureConstraints(movable=movable)  # type: ignore[arg-type]
+
+
+def test_a_schedule_of_a_frozen_parameter_is_refused():
+    """A scripted nature that moves a parameter ``movable`` freezes is a contradiction."""
+    import ns_pz
+
+    nature = ScriptedNature({"gravity": IncrementUpdate(ContinuousScheduler(start=1), k=0.1)})
+    with pytest.raises(ValueError, match=r"nature schedules \['gravity'\], which constraints"):
+        ns_pz.make(
+            "ns_pz/CartPole-v0", nature=nature, constraints=NatureConstraints(movable=("length",))
+        )

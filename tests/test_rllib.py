@@ -52,6 +52,9 @@ def test_scripted_monitor_hides_the_monitor_and_flattens_observations():
     assert env.game.process.t == 20 and len(seen) == 2 * 20 + 2
 
 
+# PettingZoo's api_test resets with options={"options": 1} to see that an unknown option does
+# not crash; ns_pz warns that it ignores it, as it should for a user's typo. Expected here.
+@pytest.mark.filterwarnings("ignore:reset options \\['options'\\] are not understood:UserWarning")
 @pytest.mark.parametrize("scripted_monitor", [True, False])
 def test_wrapper_passes_pettingzoos_api_test(scripted_monitor):
     """PettingZoo's own API test accepts the wrapper, with the monitor hidden or learning."""

@@ -37,6 +37,12 @@ def lean_nature(obs):
     return np.ones(6, np.float32)
 
 
+# check_env's advice, expected here: the seats are built without gym.make (no spec to test
+# render modes through), and CartPole's state, which nature and the monitor observe, has
+# unbounded velocities, as in Gymnasium's own CartPole.
+@pytest.mark.filterwarnings("ignore:.*not having a spec:UserWarning")
+@pytest.mark.filterwarnings("ignore:.*minimum value is -infinity:UserWarning")
+@pytest.mark.filterwarnings("ignore:.*maximum value is infinity:UserWarning")
 def test_every_seat_passes_gymnasiums_checker():
     """Nature (also state-aware) and monitor seats are valid Gymnasium envs, seeded by reset."""
     vi = SnapshotValueIteration(gamma=0.99)
@@ -767,3 +773,35 @@ def test_one_policy_monitor_bound_to_two_families_is_refused_as_detectors_are():
     first.reset(seed=0)
     observation, *_ = first.step(0)  # the first env still gets its one flag
     assert observation["env_change"].tolist() == [0]
+
+
+# check_env's advice for a seat built without gym.make (no spec) and for the "delta" actions
+# (Δθ in its own units, by design not in [-1, 1]); neither is what this test checks.
+@pytest.mark.filterwarnings("ignore:.*not having a spec:UserWarning")
+@pytest.mark.filterwarnings("ignore:.*symmetric and normalized space:UserWarning")
+def test_movable_drops_the_frozen_parameters_from_natures_action_space():
+    """NatureConstraints(movable=...) leaves nature two action elements; the rest stay at θ_0."""
+    constraints = NatureConstraints(
+        movable=("length", "force_mag"), lipschitz={"length": 0.05, "force_mag": 0.5}
+    )
+    for mode in ("normalized", "delta"):
+        seat = ns_pz.single_agent(
+            "ns_pz/CartPole-v0",
+            "nature",
+            {DECISION: balance},
+            constraints=constraints,
+            nature_action=mode,
+        )
+        assert seat.action_space.shape == (2,)
+        check_env(seat)
+    seat = ns_pz.single_agent(
+        "ns_pz/CartPole-v0", "nature", {DECISION: balance}, constraints=constraints
+    )
+    seat.reset(seed=0)
+    for _ in range(5):
+        seat.step(np.ones(2, np.float32))
+    truth = seat.unwrapped.ground_truth()
+    moved = {n for n in truth.theta0.names() if getattr(truth.theta, n) != getattr(truth.theta0, n)}
+    assert moved == {"length", "force_mag"}
+    assert truth.theta.length == pytest.approx(truth.theta0.length + 5 * 0.05)
+    assert truth.theta.force_mag == pytest.approx(truth.theta0.force_mag + 5 * 0.5)

@@ -3,7 +3,7 @@
 The game tools work on a finite θ grid: nature's and the agent's best responses, the Shapley
 value and equilibrium at ``detailed``, and how exploitable a planner is.
 
-These are the bounds every tabular benchmark cell is read against (ALGORITHMS.md §7): the
+These are the bounds every tabular benchmark cell is read against: the
 oracle's value is the best any agent can do in expectation against the true θ trajectory.
 """
 

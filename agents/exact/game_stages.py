@@ -1,10 +1,11 @@
 """The stages of the NS-MDP game on a nature grid, and the strategies played in them.
 
-A stage is ``(t, s, i, b)``: step ``t``, the agent's state ``s``, θ_{t-1} = θ^i and nature's
-budget left ``b`` (units of :class:`~ns_pz.agents.exact.nature_grid.NatureGrid`). Nature picks
-θ_t = θ^j among the moves allowed from ``i`` with ``b`` left, the agent picks ``a`` without
-seeing ``j`` (DESIGN.md, "The game as a game"), and the transition is drawn under θ^j. Given
-the values ``V_{t+1}[s', j, b']`` after the stage, the payoff of the pair ``(a, j)`` is::
+A stage is ``(t, s, i, b)``: step ``t``, the agent's state ``s``, θ_{t-1} = θ^i and nature's budget
+left ``b`` (units of :class:`~ns_pz.agents.exact.nature_grid.NatureGrid`). Nature picks θ_t = θ^j
+among the moves allowed from ``i`` with ``b`` left, the agent picks ``a`` without seeing ``j``
+(within a step the two move simultaneously; see :mod:`ns_pz.game`), and the transition is drawn
+under θ^j. Given the values ``V_{t+1}[s', j, b']`` after the stage, the payoff of the pair
+``(a, j)`` is::
 
     G_t[i, b, j, s, a] = Σ_k P_j(k | s, a) · (r_k + γ (1 - terminal_k) V_{t+1}[s'_k, j, b - c_ij])
 

@@ -1,10 +1,10 @@
 """The value and equilibrium of the NS-MDP game at ``detailed``, by Shapley's backward induction.
 
-Each step nature picks θ_t on its grid and the agent picks ``a_t`` simultaneously: the agent
-sees ``s_t``, θ_{t-1} and (through the change sizes it is told) nature's budget left, not θ_t
-(DESIGN.md, "The game as a game"). Nature sees ``t``, θ_{t-1}, its budget and ``s_t``. The game
-is zero-sum (nature's payoff is minus the agent's return), finite and of perfect recall with
-observed stages, so its value is computed stage by stage::
+Each step nature picks θ_t on its grid and the agent picks ``a_t`` simultaneously: the agent sees
+``s_t``, θ_{t-1} and (through the change sizes it is told) nature's budget left, not θ_t (it hears
+of θ_t only after the transition). Nature sees ``t``, θ_{t-1}, its budget and ``s_t``. The game is
+zero-sum (nature's payoff is minus the agent's return), finite and of perfect recall with observed
+stages, so its value is computed stage by stage::
 
     V_t[s, i, b] = val( G_t[i, b, ·, s, ·] )        V_H = 0
 

@@ -13,7 +13,8 @@ player plays ``a`` and the column player (nature, minimising) plays ``j``; only 
    of theirs and every optimal solution is optimal block by block); nature's optimal strategy
    is read from the duals of the ``j`` constraints.
 
-scipy is imported on first use (``import ns_pz`` must stay light).
+scipy is imported on first use (``import ns_pz`` must stay light); without it (the ``game``
+extra) the first mixed game raises :class:`~ns_pz.errors.MissingExtra` saying so.
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from ns_pz.extras import require
 
 SADDLE_TOLERANCE = 1e-12
 """Largest gap between the pure maximin and minimax accepted as a pure saddle point."""
@@ -100,8 +103,9 @@ def _solve_stacked(
     payoffs: np.ndarray, allowed: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One block-diagonal LP for a batch of games without a pure saddle point."""
-    from scipy.optimize import linprog
-    from scipy.sparse import coo_matrix
+    why = "solving a matrix game without a pure saddle point (solve_game, exploitability)"
+    linprog = require("scipy.optimize", why).linprog
+    coo_matrix = require("scipy.sparse", why).coo_matrix
 
     count, num_rows, num_columns = payoffs.shape
     width = num_rows + 1  # x_0 .. x_{A-1}, v per game

@@ -11,10 +11,9 @@ it and brackets the value with two best responses:
 where ``π̄, ν̄`` are CFR's average strategies (the gap is OpenSpiel's NashConv and shrinks as
 CFR runs). Each step is played as nature's move, then the agent's, then chance's; the agent's
 information state does not include nature's move at this step, which makes the two moves
-simultaneous as in the game (the turn order of ns_pz's game: nature moves before it sees
-a_t). The agent's information state is its own history of states and actions, plus at
-``basic`` whether θ changed behind each past transition and at ``detailed`` θ_{t-1} itself
-(nature's past grid indices).
+simultaneous as in the game (nature moves before it sees a_t). The agent's information
+state is its own history of states and actions, plus at ``basic`` whether θ changed behind
+each past transition and at ``detailed`` θ_{t-1} itself (nature's past grid indices).
 
 **Nature sees what the environment's state-observing nature sees.** In the environment such a
 nature (``NatureInterface(observes_state=True)``, a learned or a :class:`PolicyNature`) observes

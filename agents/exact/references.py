@@ -1,14 +1,15 @@
 """Exact references for the tabular envs: the oracle, snapshot replanning, the stale policy.
 
-All three are time-indexed policies solved by backward induction (ALGORITHMS.md §7):
+All three are time-indexed policies solved by backward induction over the horizon:
 
 * **oracle** (Lecarpentier's "DP-NSMDP"): knows θ_0 .. θ_{H-1} and solves the time-indexed
   problem. Its value at the start state is the exact optimum in expectation: no agent, whatever
   it observes, can do better in expectation against that θ trajectory.
 * **snapshot replanning** ("DP-snapshot", a perfect planner at notification ``detailed``):
-  before transition ``t`` it knows θ_{t-1}, the θ of the transition it last saw (the one-step
-  lag of DESIGN.md), and acts as if that θ held until the horizon. Before transition 0 it knows
-  only the θ at reset, which is not ``thetas[0]`` when nature changes θ at step 0.
+  before transition ``t`` it knows θ_{t-1}, the θ of the transition it last saw (an agent hears of a
+  change one step after the transition it drove), and acts as if that θ held until the horizon.
+  Before transition 0 it knows only the θ at reset, which is not ``thetas[0]`` when nature changes θ
+  at step 0.
 * **stale** (a perfect planner at ``none`` / ``basic``): acts optimally for the θ at reset
   throughout.
 

@@ -1,9 +1,9 @@
 """AlphaZero self-play training on the stationary base environment θ_0 (imports torch).
 
-ALGORITHMS.md §2.1, with NS-Gym's defects fixed (§2.4): the policy loss is the cross-entropy
-between the visit distribution and the network's *logits* (NS-Gym applied ``cross_entropy`` to
-softmax outputs, a double softmax), and the network trains on a window of recent self-play
-samples rather than only the last episode. The loop reads top to bottom:
+AlphaZero (Silver et al. 2017) as NS-Gym trains it, with two of its defects fixed: the policy loss
+is the cross-entropy between the visit distribution and the network's *logits* (NS-Gym applied
+``cross_entropy`` to softmax outputs, a double softmax), and the network trains on a window of
+recent self-play samples rather than only the last episode. The loop reads top to bottom:
 
 for each episode: play it with PUCT on the planning model (θ_0) under the current network,
 recording ``(features, visit distribution at temperature T, value target)`` per move and
@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import collections
 import time
+from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
@@ -53,12 +54,17 @@ def alphazero_loss(
 
 
 def train_alphazero(
-    env: NSGymEnv, args: AlphaZeroArgs, seed: int
+    env: NSGymEnv,
+    args: AlphaZeroArgs,
+    seed: int,
+    progress: Callable[[int, int], bool] | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Self-play ``args.episodes`` episodes in ``env`` (stationary, θ_0) and train the network.
 
     ``args`` must have its family defaults filled in (:meth:`AlphaZeroArgs.for_family`).
     Everything random comes from ``seed`` (episodes, searches, move sampling, initialisation).
+    ``progress`` is called after every episode with ``(episodes done, args.episodes)``; if it
+    returns True, training stops there (the network kept so far is returned).
 
     Returns:
         The kept network's weights (:class:`PolicyValueFunction` layout) and training figures.
@@ -81,7 +87,7 @@ def train_alphazero(
         best_average, kept = -np.inf, network.export()
 
         observation, _ = env.reset(seed=seed)
-        for _ in range(args.episodes):
+        for episode in range(args.episodes):
             # play one episode with the current network, recording the search targets
             function = PolicyValueFunction(network.export(), space)
             episode_return, done, rewards, played = 0.0, False, [], []
@@ -124,6 +130,8 @@ def train_alphazero(
                 and average > best_average
             ):
                 best_average, kept = average, network.export()
+            if progress is not None and progress(episode + 1, args.episodes):
+                break
 
     info = {
         "seconds": time.perf_counter() - start,

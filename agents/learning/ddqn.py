@@ -1,6 +1,6 @@
 """Double DQN (van Hasselt et al. 2016) trained on the stationary base env θ_0 (imports torch).
 
-ALGORITHMS.md §3. The training loop reads top to bottom like cleanrl's ``dqn.py``; the one
+The training loop reads top to bottom like cleanrl's ``dqn.py``; the one
 thing that makes it *Double* DQN is :func:`double_dqn_target`: the online network chooses the
 next action, the target network evaluates it (NS-Gym's ``DDQN`` uses the vanilla
 ``max_a' Q_target`` target, and in practice no separate target network at all).
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import copy
 import time
+from collections.abc import Callable
 from dataclasses import asdict
 from typing import Any
 
@@ -67,12 +68,25 @@ def double_dqn_target(
     return rewards + gamma * (1.0 - terminated) * evaluated
 
 
-def train_ddqn(env: NSGymEnv, args: DDQNArgs, seed: int) -> tuple[dict[str, np.ndarray], dict]:
+def train_ddqn(
+    env: NSGymEnv,
+    args: DDQNArgs,
+    seed: int,
+    progress: Callable[[int, int], bool] | None = None,
+) -> tuple[dict[str, np.ndarray], dict]:
     """Train a Double DQN in ``env`` (a stationary env at θ_0) for ``args.total_steps`` steps.
 
     Everything random comes from ``seed``: the env's episodes, ε-greedy and replay sampling
     (a numpy generator), the network initialisation (a forked torch generator). Torch runs on
     one thread (the benchmark's workers use the other cores).
+
+    Args:
+        env: The stationary training environment.
+        args: The settings, family defaults filled in.
+        seed: Everything random comes from it.
+        progress: Called after every step with ``(steps done, args.total_steps)``; if it returns
+            True, training stops there and the network so far is returned (``bench estimate``
+            times a few steps this way).
 
     Returns:
         The Q-network's weights (``q.i.weight``/``q.i.bias``, :class:`NumpyMLP` layout) and
@@ -134,6 +148,8 @@ def train_ddqn(env: NSGymEnv, args: DDQNArgs, seed: int) -> tuple[dict[str, np.n
                 loss.backward()
                 optimizer.step()
                 soft_update(target_network, q_network, args.tau)
+            if progress is not None and progress(step + 1, args.total_steps):
+                break
 
     info: dict[str, Any] = {
         "seconds": time.perf_counter() - start,

@@ -1,6 +1,6 @@
 """DDQN with notification: the θ_0 Q-network, fine-tuned on each notified change (torch).
 
-ALGORITHMS.md §3.1 "DECIDE (WN)". When the observation flags a change, the agent collects
+The NS-Gym paper's DDQN "with notification". When the observation flags a change, the agent collects
 ``model_steps`` transitions in the planning model handed over (at ``detailed`` it has the new
 θ), ε-greedy from the current state, restarting from the current state whenever a simulated
 episode ends, then makes ``gradient_steps`` Double-DQN updates on them; it then acts greedily.

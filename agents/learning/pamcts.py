@@ -1,6 +1,6 @@
 """PA-MCTS (Pettet et al., AAMAS 2024): UCT under the current model, mixed with a stale Q.
 
-ALGORITHMS.md §4. UCT (:func:`ns_pz.agents.search.mcts.uct_tree`, compiled where MCTS is) runs
+UCT (:func:`ns_pz.agents.search.mcts.uct_tree`, compiled where MCTS is) runs
 in the planning model handed over; at the root its action values ``G`` are combined with the
 frozen Q-network of the base environment: ``argmax_a α q(a) + (1 - α) G(a)``. α is the weight
 of the stale policy: α = 0 is MCTS, α = 1 the stale DDQN. With ``normalise`` (NS-Gym's HEAD)

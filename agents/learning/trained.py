@@ -9,11 +9,12 @@ cache, training it first (under the key's lock) if it is missing. Training impor
 from __future__ import annotations
 
 import importlib
+import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 from gymnasium import spaces
@@ -22,6 +23,7 @@ from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
 from ns_pz.agents.learning.features import feature_size
 
 from ns_pz import __version__
+from ns_pz.extras import require
 from ns_pz.views import NSGymEnv
 from ns_pz.workers import new_pool, stop_pool
 
@@ -47,12 +49,26 @@ class Needed:
     args: DDQNArgs | AlphaZeroArgs
     label: str
 
-    def train(self) -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
-        """Train the network now (imports torch): ``(weights, info)``."""
+    @property
+    def work(self) -> tuple[int, str]:
+        """How much training it takes: ``(total, unit)``, unit ``"steps"`` or ``"episodes"``."""
+        if isinstance(self.args, DDQNArgs):
+            return self.args.total_steps, "steps"
+        return self.args.episodes, "episodes"
+
+    def train(
+        self, progress: Callable[[int, int], bool] | None = None
+    ) -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
+        """Train the network now (imports torch): ``(weights, info)``.
+
+        Args:
+            progress: Called with ``(done, total)`` in :attr:`work`'s unit as training goes;
+                returning True stops it there (the network so far is returned).
+        """
         env = training_env(self.env, self.args.max_episode_steps)
         if isinstance(self.args, DDQNArgs):
-            return torch_module("ddqn").train_ddqn(env, self.args, self.args.seed)
-        return torch_module("alphazero").train_alphazero(env, self.args, self.args.seed)
+            return torch_module("ddqn").train_ddqn(env, self.args, self.args.seed, progress)
+        return torch_module("alphazero").train_alphazero(env, self.args, self.args.seed, progress)
 
 
 def training_env(env: NSGymEnv, max_episode_steps: int) -> NSGymEnv:
@@ -83,15 +99,10 @@ def torch_module(name: str) -> Any:
     """``ns_pz.agents.learning.<name>``, a module that imports torch.
 
     Raises:
-        ImportError: torch is not installed (the message says how to install it).
+        MissingExtra: torch is not installed (an ``ImportError`` naming the ``learn`` extra).
     """
-    try:
-        return importlib.import_module(f"ns_pz.agents.learning.{name}")
-    except ImportError as error:
-        raise ImportError(
-            f"training needs torch ({error}); on a CPU-only machine: "
-            "pip install torch==2.13.0 && pip install 'ns_pz[learn]'"
-        ) from None
+    require("torch", f"the learning agents' {name} (training or fine-tuning a network)")
+    return importlib.import_module(f"ns_pz.agents.learning.{name}")
 
 
 def ddqn_needed(env: NSGymEnv, args: DDQNArgs) -> Needed:
@@ -126,6 +137,7 @@ def prepare(
     root: Path | None = None,
     report: Callable[[Needed, float, bool], None] | None = None,
     workers: int = 1,
+    progress: TextIO | None = None,
 ) -> float:
     """Make sure every artefact in ``needs`` is cached (each distinct key trained once).
 
@@ -134,6 +146,9 @@ def prepare(
         root: The cache folder (default: the user cache).
         report: Called per distinct artefact with its seconds and whether it was trained.
         workers: Processes training distinct artefacts at once (1: here, one after another).
+        progress: Where each training draws its progress line (steps or episodes done, rate,
+            elapsed, ETA); ``None``: none. Training processes of a pool write plain lines to
+            their own stderr (lines of several trainings redrawn in place would mix).
 
     Returns:
         Seconds spent training, summed over artefacts (CPU time of one core each).
@@ -142,13 +157,15 @@ def prepare(
     if workers > 1 and sum(not exists(n.request, root) for n in distinct) > 1:
         pool = new_pool(min(workers, len(distinct)))
         clean = False
+        count = len(distinct)
         try:
-            results = list(pool.map(_prepare_one, distinct, [root] * len(distinct)))
+            shown = [progress is not None] * count
+            results = list(pool.map(_prepare_in_pool, distinct, [root] * count, shown))
             clean = True
         finally:
             stop_pool(pool, clean)  # interrupted: the training workers stop now
     else:
-        results = [_prepare_one(need, root) for need in distinct]
+        results = [_prepare_one(need, root, progress) for need in distinct]
     spent = 0.0
     for need, (seconds, trained) in zip(distinct, results, strict=True):
         spent += seconds if trained else 0.0
@@ -157,7 +174,32 @@ def prepare(
     return spent
 
 
-def _prepare_one(need: Needed, root: Path | None) -> tuple[float, bool]:
+def _prepare_in_pool(need: Needed, root: Path | None, shown: bool) -> tuple[float, bool]:
+    """:func:`_prepare_one` in a pool's process: plain progress lines on its stderr."""
+    return _prepare_one(need, root, sys.stderr if shown else None, in_place=False)
+
+
+def _prepare_one(
+    need: Needed, root: Path | None, progress: TextIO | None, in_place: bool | None = None
+) -> tuple[float, bool]:
     start = time.perf_counter()
-    _, trained = load_or_train(need.request, need.train, root)
+    if progress is None:
+        _, trained = load_or_train(need.request, need.train, root)
+        return time.perf_counter() - start, trained
+    from ns_pz.experiments.progress import Progress  # not at import: experiments import us
+
+    total, unit = need.work
+    bar = Progress(total, 0, f"training {need.label}", progress, unit=unit, in_place=in_place)
+
+    def advance(done: int, total: int) -> bool:
+        bar.advance(to=done)
+        return False
+
+    def train() -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
+        try:
+            return need.train(advance)
+        finally:
+            bar.close()
+
+    _, trained = load_or_train(need.request, train, root)
     return time.perf_counter() - start, trained

@@ -7,7 +7,7 @@ observed transition identifies its atom, never which of the equal slots produced
 
 Two ways to tie parameters:
 
-* ``pooling="state_action"`` (ALGORITHMS.md §5.8): one Dirichlet per (s, a) over its atoms,
+* ``pooling="state_action"`` (ADA-MCTS's default): one Dirichlet per (s, a) over its atoms,
   prior ``prior`` per atom;
 * ``pooling="shared"``: one Dirichlet over slot indices shared by every (s, a), prior ``prior``
   per slot. Right when θ is one global slip vector (FrozenLake, CliffWalking, Bridge): every

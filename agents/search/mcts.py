@@ -1,4 +1,4 @@
-"""MCTS: UCT with random rollouts (Kocsis & Szepesvári 2006), as ALGORITHMS.md §1.1.
+"""MCTS: UCT with random rollouts (Kocsis & Szepesvári 2006), as the NS-Gym paper runs it.
 
 Each decision builds a fresh tree from the root state and throws it away afterwards:
 

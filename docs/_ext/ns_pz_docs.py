@@ -32,13 +32,21 @@ from sphinx.util import logging
 
 logger = logging.getLogger(__name__)
 
-# The layers of the design, in reading order: (title, blurb, module-name rules). A module belongs
-# to the first layer with a rule equal to its name or a prefix of it followed by a dot.
+# The package's layers (imports point down only), in reading order: (title, blurb, module-name
+# rules). A module belongs to the first layer with a rule equal to its name or a prefix of it
+# followed by a dot.
 LAYERS: list[tuple[str, str, tuple[str, ...]]] = [
     (
         "θ: parameter sets",
         "Immutable, validated parameter values and their errors (and leaf utilities).",
-        ("ns_pz.params", "ns_pz.errors", "ns_pz.checks", "ns_pz.files", "ns_pz.workers"),
+        (
+            "ns_pz.params",
+            "ns_pz.errors",
+            "ns_pz.checks",
+            "ns_pz.files",
+            "ns_pz.workers",
+            "ns_pz.extras",
+        ),
     ),
     (
         "Nature",
@@ -326,7 +334,57 @@ def _module_page(module_name: str) -> str:
             summary = (inspect.getdoc(obj) or "").strip().split("\n")[0] if role != "data" else ""
             lines += [f"   * - :{role}:`{name} <{target}>`", f"     - {summary}"]
         lines.append("")
+    if hasattr(module, "__path__"):  # a package: what is inside it, so its page is never empty
+        lines += _package_contents(module_name)
     return "\n".join(lines)
+
+
+def _package_contents(package: str) -> list[str]:
+    """A package page's list of its public submodules (and, for ``ns_pz.envs``, the families)."""
+    lines: list[str] = []
+    if package == "ns_pz.envs":
+        import ns_pz
+
+        families: dict[type, list[str]] = {}
+        for env_id in ns_pz.registered_envs():
+            families.setdefault(ns_pz.spec(env_id).family, []).append(env_id)
+        lines += [
+            "Families",
+            "--------",
+            "",
+            "Registered here (:func:`ns_pz.envs.registry.registered_envs`; one page each under",
+            ":doc:`/families/index`); make them with :func:`ns_pz.envs.registry.make` (the game),",
+            ":func:`ns_pz.envs.registry.make_gym` or ``gymnasium.make`` (the view) and",
+            ":func:`ns_pz.envs.registry.make_vec` (a batch); :func:`ns_pz.envs.registry.spec`",
+            "describes an id and :func:`ns_pz.envs.registry.register` adds one.",
+            "",
+            ".. list-table::",
+            "   :header-rows: 1",
+            "   :widths: 30 70",
+            "",
+            "   * - family",
+            "     - registered ids",
+        ]
+        for family_cls, ids in sorted(families.items(), key=lambda item: item[0].__name__):
+            slug = family_cls.__name__.removesuffix("Family")
+            ref = f"{family_cls.__module__}.{family_cls.__qualname__}"
+            lines += [
+                f"   * - :class:`{slug} <{ref}>` (:doc:`page </families/{slug}>`)",
+                f"     - {', '.join(f'``{i}``' for i in ids)}",
+            ]
+        lines.append("")
+    inside = [
+        name
+        for name in public_modules()
+        if name.startswith(package + ".") and "." not in name[len(package) + 1 :]
+    ]
+    if inside:
+        lines += ["Modules", "-------", "", ".. list-table::", "   :widths: 35 65", ""]
+        for name in inside:
+            doc = (importlib.import_module(name).__doc__ or "").strip().split("\n")[0]
+            lines += [f"   * - :mod:`{name}`", f"     - {doc}"]
+        lines.append("")
+    return lines
 
 
 # --- family pages ----------------------------------------------------------------------------

@@ -2,21 +2,20 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
 from ns_pz.agents.catalog import agent_entry
-from ns_pz.agents.learning.artefacts import artefact_path, read_manifest
+from ns_pz.agents.learning.artefacts import artefact_path, exists, read_manifest
 from ns_pz.agents.learning.trained import Needed, prepare
 from ns_pz.experiments.backends import Backend
 from ns_pz.experiments.lock import locked
 from ns_pz.experiments.progress import Progress
-from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
+from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.store import ResultStore
-from ns_pz.experiments.trials import Trial, expand, run_trial
+from ns_pz.experiments.trials import Trial, expand
 
 
 @dataclass(frozen=True)
@@ -107,6 +106,20 @@ class TrainingCost:
     trained_now: bool
 
 
+def needed_networks(spec: ExperimentSpec, trials: list[Trial]) -> list[tuple[str, Needed]]:
+    """The trained networks ``trials`` need, as ``(agent label, need)`` (a key may repeat)."""
+    needs: list[tuple[str, Needed]] = []
+    seen: set[str] = set()
+    for trial in trials:
+        entry = agent_entry(trial.agent.name)
+        if entry.artefacts is None or trial.agent.label in seen:
+            continue
+        seen.add(trial.agent.label)  # every cell of a spec shares θ_0 and the family
+        env = spec.make_env(trial.cell)
+        needs.extend((trial.agent.label, need) for need in entry.artefacts(env, trial.agent.hyper))
+    return needs
+
+
 def train_artefacts(
     spec: ExperimentSpec, trials: list[Trial], progress: TextIO | None = None, workers: int = 1
 ) -> list[TrainingCost]:
@@ -119,14 +132,7 @@ def train_artefacts(
     their own cache folder: share it (``NS_PZ_CACHE_DIR`` on a shared disk), or each machine
     trains a missing network itself, once per machine.
     """
-    needs: list[Needed] = []
-    seen: set[str] = set()
-    for trial in trials:
-        entry = agent_entry(trial.agent.name)
-        if entry.artefacts is None or trial.agent.label in seen:
-            continue
-        seen.add(trial.agent.label)  # every cell of a spec shares θ_0 and the family
-        needs.extend(entry.artefacts(spec.make_env(trial.cell), trial.agent.hyper))
+    needs = [need for _, need in needed_networks(spec, trials)]
     costs = []
 
     def report(need: Needed, seconds: float, trained: bool) -> None:
@@ -138,93 +144,10 @@ def train_artefacts(
             progress.write(f"trained {need.label} in {seconds:.1f} s\n")
 
     if needs and progress is not None:
-        count = len({need.request.key for need in needs})
-        progress.write(f"{spec.name} needs {count} trained network(s)\n")
-    prepare(needs, report=report, workers=workers)
+        keys = {need.request.key: need for need in needs}
+        missing = sum(not exists(need.request) for need in keys.values())
+        if missing:  # cached ones are only loaded: nothing to announce
+            cached = f" ({len(keys) - missing} cached)" if missing < len(keys) else ""
+            progress.write(f"{spec.name}: training {missing} network(s){cached}\n")
+    prepare(needs, report=report, workers=workers, progress=progress)
     return costs
-
-
-@dataclass(frozen=True)
-class CellCost:
-    """Measured cost of one agent in one cell.
-
-    ``seconds_per_trial`` is wall time, so it grows when other programs share the machine;
-    ``cpu_seconds_per_trial`` (this process's CPU time) is what an otherwise idle core takes.
-    """
-
-    setting: str
-    notification: str
-    agent: str
-    seconds_per_trial: float
-    trials: int
-    cpu_seconds_per_trial: float
-
-    @property
-    def total_seconds(self) -> float:
-        """Projected wall time of all the cell's trials on one core, loaded as now."""
-        return self.seconds_per_trial * self.trials
-
-    @property
-    def total_cpu_seconds(self) -> float:
-        """Projected time of all the cell's trials on one otherwise idle core."""
-        return self.cpu_seconds_per_trial * self.trials
-
-
-def estimate(
-    spec: ExperimentSpec, samples: int = 2, progress: TextIO | None = None
-) -> list[CellCost]:
-    """Run the first ``samples`` seeds of every agent × cell here, serially, and project.
-
-    Args:
-        spec: The experiment.
-        samples: Seeds timed per agent and cell.
-        progress: Where to draw a progress line over the sampled trials (``None``: none).
-
-    Raises:
-        ValueError: ``samples`` < 1.
-        RuntimeError: A sampled trial failed (its error is in the message).
-    """
-    if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
-        raise ValueError(f"samples={samples!r} must be an integer >= 1")
-    train_artefacts(spec, expand(spec))  # trained once up front, not inside a timed trial
-    groups: dict[tuple[int, str, str], list] = {}
-    for trial in expand(spec):
-        key = (trial.cell.index, trial.cell.notification, trial.agent.label)
-        groups.setdefault(key, []).append(trial)
-    bar = None
-    if progress is not None:
-        total = sum(min(samples, len(trials)) for trials in groups.values())
-        bar = Progress(total, 0, f"estimate {spec.name} ({spec.size})", progress)
-    costs = []
-    try:
-        for trials in groups.values():
-            costs.append(_time_group(spec, trials[:samples], len(trials), bar))
-    finally:
-        if bar is not None:
-            bar.close()
-    return costs
-
-
-def _time_group(
-    spec: ExperimentSpec, sampled: list[Trial], trials: int, bar: Progress | None
-) -> CellCost:
-    """Run ``sampled`` (one agent in one cell); their mean time projected to ``trials``."""
-    times, cpu_times = [], []
-    for trial in sampled:
-        cpu_start = time.process_time()
-        row = run_trial(spec, trial)
-        cpu_times.append(time.process_time() - cpu_start)
-        if row["status"] != "ok":
-            raise RuntimeError(f"trial {trial.key} failed: {row['error']}")
-        times.append(row["wall_time"])
-        if bar is not None:
-            bar.advance()
-    first = sampled[0]
-    return CellCost(
-        first.cell.setting,
-        LEVEL_LABELS[first.cell.notification],
-        first.agent.label,
-        sum(times) / len(times),
-        trials,
-        sum(cpu_times) / len(cpu_times),
-    )

@@ -1,14 +1,15 @@
 """What nature is allowed to do, and the projection that enforces it.
 
-Bounds come from the parameter specs. :class:`NatureConstraints` adds a Lipschitz bound (the
-largest change of one parameter in one step) and a total budget (the largest sum of change sizes
-over an episode). Sizes are measured as in :meth:`ns_pz.params.Params.change_sizes`: absolute
-difference for a scalar, W1 with the discrete ground metric (total variation) for a vector.
+Bounds come from the parameter specs. :class:`NatureConstraints` adds which parameters nature may
+move at all (``movable``; the others stay at θ_0), a Lipschitz bound (the largest change of one
+parameter in one step) and a total budget (the largest sum of change sizes over an episode). Sizes
+are measured as in :meth:`ns_pz.params.Params.change_sizes`: absolute difference for a scalar, W1
+with the discrete ground metric (total variation) for a vector.
 
 :func:`admit` turns any proposal into an allowed θ in three stages:
 
-1. each proposed value is projected onto its spec (clipped into the bounds; a vector projected
-   onto the simplex);
+1. a proposed value of a parameter nature may not move is dropped; every other one is
+   projected onto its spec (clipped into the bounds; a vector projected onto the simplex);
 2. a parameter whose change exceeds its Lipschitz bound is moved only part of the way, along the
    straight line from the old value towards the projected one;
 3. if the changes together exceed the budget left, all of them are shortened by one common
@@ -37,6 +38,10 @@ class NatureConstraints:
     own unit (N, kg, s; total variation for a probability vector).
 
     Attributes:
+        movable: The parameters nature may move, by name; the others stay at θ_0 (a move of one
+            is dropped, and a learned nature's action space leaves them out). ``None``: every
+            parameter. With ``lipschitz`` and ``budget`` naming only some parameters, the ones
+            not named are unbounded, not frozen: ``movable`` is the way to freeze them.
         lipschitz: Largest change size per step, one number for every parameter or a mapping
             from parameter name to its bound (parameters not named are unbounded). ``None``:
             no per-step bound.
@@ -52,6 +57,7 @@ class NatureConstraints:
     lipschitz: float | Mapping[str, float] | None = None
     budget: float | Mapping[str, float] | None = None
     normalized_budget: float | None = None
+    movable: tuple[str, ...] | None = None
     _per_param: Mapping[str, float] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -67,11 +73,12 @@ class NatureConstraints:
 
     def __hash__(self) -> int:
         """Equal constraints hash equally, per-parameter mappings included."""
-        return hash(
-            tuple(_hashable(v) for v in (self.lipschitz, self.budget, self.normalized_budget))
-        )
+        limits = (self.lipschitz, self.budget, self.normalized_budget, self.movable)
+        return hash(tuple(_hashable(v) for v in limits))
 
     def __post_init__(self) -> None:
+        if self.movable is not None:
+            object.__setattr__(self, "movable", _check_movable(self.movable))
         if isinstance(self.budget, Mapping):
             per = {n: _check_limit(f"budget[{n!r}]", v) for n, v in self.budget.items()}
             object.__setattr__(self, "_budget_per_param", per)
@@ -91,15 +98,17 @@ class NatureConstraints:
         has_budget = self.budget is not None or self.normalized_budget is not None
         object.__setattr__(self, "total_budget", total)
         object.__setattr__(self, "has_budget", has_budget)
-        object.__setattr__(self, "unconstrained", self.lipschitz is None and not has_budget)
+        unconstrained = self.lipschitz is None and not has_budget and self.movable is None
+        object.__setattr__(self, "unconstrained", unconstrained)
 
     def check_names(self, params_cls: type[Params]) -> None:
         """Check the constraints fit a parameter set.
 
         Raises:
-            UnknownParam: A bound or budget names no parameter.
+            UnknownParam: A bound, budget or movable parameter names no parameter.
             ValueError: ``normalized_budget`` is set but a parameter has an unbounded range.
         """
+        params_cls.check_names(self.movable or ())
         params_cls.check_names(self._per_param)
         params_cls.check_names(self._budget_per_param)
         if self.normalized_budget is not None:
@@ -109,6 +118,10 @@ class NatureConstraints:
                         f"normalized_budget={self.normalized_budget!r} needs bounded parameters; "
                         f"{params_cls.__name__}.{spec.name} ranges over {spec.allowed()}"
                     )
+
+    def moves(self, name: str) -> bool:
+        """Whether nature may move parameter ``name`` (see :attr:`movable`)."""
+        return self.movable is None or name in self.movable
 
     def lipschitz_of(self, name: str) -> float | None:
         """The per-step bound of one parameter, or ``None``."""
@@ -187,6 +200,8 @@ def admit(
         return new_theta, (sizes if sizes_wanted else None)
     for name, raw in proposal.items():
         spec = by_name.get(name) or theta.spec(name)  # theta.spec raises UnknownParam
+        if not constraints.moves(name):
+            continue
         old = getattr(theta, name)
         new = spec.project(owner, raw)
         if new == old:
@@ -290,6 +305,27 @@ def _towards(spec: ParamSpec, old: Value, new: Value, fraction: float) -> Value:
         return tuple(o + fraction * (n - o) for o, n in zip(old, new, strict=True))  # type: ignore[arg-type]
     moved = old + fraction * (new - old)  # type: ignore[operator]
     return moved if spec.contains(moved) else old
+
+
+def _check_movable(movable: object) -> tuple[str, ...]:
+    """``movable`` as a tuple of distinct names, at least one.
+
+    Raises:
+        TypeError: Not a list or tuple of strings (a bare string is refused: ``("length",)``).
+        ValueError: Empty, or a name repeated.
+    """
+    if not isinstance(movable, (list, tuple)) or not all(isinstance(n, str) for n in movable):
+        raise TypeError(
+            f"movable={movable!r} must be a tuple of parameter names, e.g. ('length', 'force_mag')"
+        )
+    if not movable:
+        raise ValueError(
+            "movable=() freezes every parameter; for a nature that never acts leave nature out "
+            "(StaticNature)"
+        )
+    if len(set(movable)) != len(movable):
+        raise ValueError(f"movable={movable!r} names a parameter twice")
+    return tuple(movable)
 
 
 def _check_limit(name: str, value: object) -> float:

@@ -31,6 +31,8 @@ same in every other.
 * ``"delta"``: Δθ itself, ``Box(-(high - low), high - low)`` per flat element (the game's
   default, exact for scripted values).
 
+Only the parameters nature may move (:attr:`NatureConstraints.movable
+<ns_pz.nature.constraints.NatureConstraints.movable>`) have action elements, in field order.
 Zero means "no change" in both. The game then projects the proposal onto the allowed set
 (:func:`ns_pz.nature.constraints.admit`), whatever the action.
 """
@@ -128,10 +130,17 @@ class NatureInterface:
         self.allowance = allowance
         """Per-step allowance of each flat θ element (``[flat size]``)."""
         self._offset_scale = np.where(allowance > 0.0, allowance, 1.0)
+        # The action's elements: those of the movable parameters, renumbered from 0.
+        moved = [entry for entry in self._layout if constraints.moves(entry[0].name)]
+        acted = np.array([i for _, start, stop in moved for i in range(start, stop)], np.intp)
+        self._layout, at = [], 0
+        for spec, start, stop in moved:
+            self._layout.append((spec, at, at + stop - start))
+            at += stop - start
         if action == "normalized":
-            self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (len(width),), np.float32)
+            self.action_space: spaces.Box = spaces.Box(-1.0, 1.0, (len(acted),), np.float32)
         else:
-            self.action_space = spaces.Box(-width, width, dtype=np.float64)  # type: ignore[arg-type]
+            self.action_space = spaces.Box(-width[acted], width[acted], dtype=np.float64)  # type: ignore[arg-type]
         self._state_space = family.observation_space if observes_state else None
         self._action_of_agent = family.action_space if observes_state else None
         self._flat_state = _flat_values_of(family.observation_space)
@@ -146,10 +155,11 @@ class NatureInterface:
         self._theta0: Params | None = None
         self._theta0_values: list[float] = []
         self._scales = self._offset_scale.tolist()
-        self._allowances = allowance.tolist()
+        self._action_scales = self._offset_scale[acted].tolist()
+        self._allowances = allowance[acted].tolist()
         self._lows = self._action_low.tolist()
         self._highs = self._action_high.tolist()
-        self._no_action = np.zeros(len(width), self.action_space.dtype)
+        self._no_action = np.zeros(len(acted), self.action_space.dtype)
         self._no_last_action: list[float] = []
         if observes_state:
             self._no_last_action = [0.0] * spaces.flatdim(family.action_space)
@@ -252,7 +262,8 @@ class NatureInterface:
 
         Args:
             theta: The θ in force.
-            proposal: New values by parameter name, or ``None``.
+            proposal: New values by parameter name, or ``None`` (a parameter nature may not
+                move has no element: its value is left out).
         """
         # Zeros (inside the action space, scaled or not), then the moved elements one by one:
         # a NumPy element assignment rounds a float as building the array from a list would.
@@ -287,7 +298,7 @@ class NatureInterface:
         ``np.clip``.
         """
         if self.action_mode == "normalized":
-            change = change / self._scales[i]
+            change = change / self._action_scales[i]
         low, high = self._lows[i], self._highs[i]
         return low if change < low else high if change > high else change
 

@@ -1,0 +1,403 @@
+"""``bench estimate``: project a run's time in minutes, from a few training steps and trials.
+
+Nothing is trained to the end and no trial need run to its end:
+
+* **Training.** A network the run would train (one not in the cache) trains for ``probe_seconds``
+  only; its remaining steps (DDQN) or episodes (AlphaZero) are projected at the rate measured once
+  its warm-up is over (DDQN's first gradient steps start after ``learning_starts``). Where
+  AlphaZero's self-play episodes lengthen as the network learns (CartPole), its projection is a
+  lower bound. The partly trained network is kept, in a temporary cache, as a stand-in: the learning
+  agents' trials are timed with it (a decision costs the same with any weights), and the user's
+  cache is never written. A cached network costs the run nothing.
+* **Trials.** Every agent × cell plays up to ``samples`` seeds, all of them within
+  ``cell_seconds``: an episode still going at the cap is cut, and its time per step projected
+  to the spec's horizon (an upper bound: the episode may have ended sooner). Trials of an agent
+  playing a stand-in network are projected to the horizon too (an untrained network ends a
+  CartPole episode early; a trained one balances to the limit).
+
+:func:`plan` says beforehand what this will do and the most it can take.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TextIO
+
+from ns_pz.agents.catalog import agent_entry
+from ns_pz.agents.evaluation import run_episode
+from ns_pz.agents.learning.artefacts import (
+    CACHE_ENV_VAR,
+    artefact_path,
+    exists,
+    read_manifest,
+    save,
+)
+from ns_pz.agents.learning.trained import Needed, torch_module
+from ns_pz.experiments.progress import Progress
+from ns_pz.experiments.runner import needed_networks
+from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
+from ns_pz.experiments.trials import Trial, expand
+
+CELL_SECONDS = 1.0
+"""Default cap on the seconds spent timing one agent in one cell (all its sampled seeds)."""
+PROBE_SECONDS = 5.0
+"""Default seconds of training timed per network the run would train."""
+
+
+@dataclass(frozen=True)
+class CellCost:
+    """Projected cost of one agent in one cell.
+
+    ``seconds_per_trial`` is wall time, so it grows when other programs share the machine;
+    ``cpu_seconds_per_trial`` (this process's CPU time) is what an otherwise idle core takes.
+    ``at_horizon``: projected from the time per step to the spec's horizon (an episode cut at
+    the cap, or a stand-in network), an upper bound; False: sampled episodes timed whole.
+    """
+
+    setting: str
+    notification: str
+    agent: str
+    seconds_per_trial: float
+    trials: int
+    cpu_seconds_per_trial: float
+    at_horizon: bool = False
+
+    @property
+    def total_seconds(self) -> float:
+        """Projected wall time of all the cell's trials on one core, loaded as now."""
+        return self.seconds_per_trial * self.trials
+
+    @property
+    def total_cpu_seconds(self) -> float:
+        """Projected time of all the cell's trials on one otherwise idle core."""
+        return self.cpu_seconds_per_trial * self.trials
+
+
+@dataclass(frozen=True)
+class TrainingCost:
+    """One network the run needs and its projected training time.
+
+    Attributes:
+        key: The artefact's key (specs with the same θ_0 share it).
+        label: What it is (learner, family, θ_0, budget).
+        seconds: Projected training seconds (for a cached one: those it recorded).
+        cached: In the cache: the run loads it, so it costs the run nothing.
+        timed: Steps or episodes actually trained for the projection (0 when cached).
+        total: Steps or episodes the full training takes.
+        unit: ``"steps"`` or ``"episodes"``.
+    """
+
+    key: str
+    label: str
+    seconds: float
+    cached: bool
+    timed: int
+    total: int
+    unit: str
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What an estimate will do, said before it starts."""
+
+    groups: int
+    """Agent × cell groups timed."""
+    networks: int
+    """Networks the run would train (each timed for ``probe_seconds``)."""
+    cached: int
+    """Networks already cached (nothing to time)."""
+    samples: int
+    cell_seconds: float
+    probe_seconds: float
+
+    @property
+    def most_seconds(self) -> float:
+        """The longest the estimate should take (each cap can overrun by one step)."""
+        return self.groups * self.cell_seconds + self.networks * self.probe_seconds
+
+    def text(self) -> str:
+        """One paragraph for the user."""
+        return (
+            f"estimate: {self.networks} network(s) to train timed for {self.probe_seconds:g} s "
+            f"each ({self.cached} cached), then {self.groups} agent x cell group(s), up to "
+            f"{self.samples} seed(s) each within {self.cell_seconds:g} s per group: at most "
+            f"about {self.most_seconds / 60:.1f} min (a cap overruns by at most one step)"
+        )
+
+
+def _check(name: str, value: object, low: float, integer: bool) -> None:
+    kinds = (int,) if integer else (int, float)
+    if isinstance(value, bool) or not isinstance(value, kinds):
+        kind = "an integer" if integer else "a number"
+        raise TypeError(f"{name}={value!r} must be {kind} >= {low}")
+    if not value >= low:  # NaN fails too
+        raise ValueError(f"{name}={value!r} must be >= {low}")
+
+
+def plan(
+    specs: Sequence[ExperimentSpec],
+    samples: int = 2,
+    cell_seconds: float = CELL_SECONDS,
+    probe_seconds: float = PROBE_SECONDS,
+) -> Plan:
+    """What :func:`estimate_training` and :func:`estimate` will do for ``specs``, and how long.
+
+    Raises:
+        TypeError, ValueError: ``samples`` not an integer >= 1, or a number of seconds <= 0.
+    """
+    _check("samples", samples, 1, integer=True)
+    _check("cell_seconds", cell_seconds, 1e-3, integer=False)
+    _check("probe_seconds", probe_seconds, 1e-3, integer=False)
+    groups = sum(len(_groups(spec)) for spec in specs)
+    keys = {
+        need.request.key: need for spec in specs for _, need in needed_networks(spec, expand(spec))
+    }
+    missing = sum(not exists(need.request) for need in keys.values())
+    return Plan(groups, missing, len(keys) - missing, samples, cell_seconds, probe_seconds)
+
+
+@contextlib.contextmanager
+def stand_in_cache() -> Iterator[Path]:
+    """A temporary artefact cache for the estimate, made the process's cache while it lasts.
+
+    :func:`estimate_training` links the user's cached networks into it and writes the
+    partly trained stand-ins there, so the user's cache is never written.
+    """
+    previous = os.environ.get(CACHE_ENV_VAR)
+    with tempfile.TemporaryDirectory(prefix="ns-pz-estimate-") as folder:
+        os.environ[CACHE_ENV_VAR] = folder
+        try:
+            yield Path(folder) / "artefacts"
+        finally:
+            if previous is None:
+                os.environ.pop(CACHE_ENV_VAR, None)
+            else:
+                os.environ[CACHE_ENV_VAR] = previous
+
+
+def estimate_training(
+    specs: Sequence[ExperimentSpec],
+    stand_ins: Path,
+    user_cache: Path,
+    probe_seconds: float = PROBE_SECONDS,
+    progress: TextIO | None = None,
+) -> tuple[list[TrainingCost], set[tuple[str, str]]]:
+    """Time a few seconds of every network ``specs`` would train; put a stand-in for each.
+
+    Args:
+        specs: The experiments.
+        stand_ins: The temporary cache (:func:`stand_in_cache`) the trials will read.
+        user_cache: The user's artefact cache (cached networks are linked from it).
+        probe_seconds: Seconds of training timed per network (past its warm-up).
+        progress: Where to draw each probe's progress line (``None``: none).
+
+    Returns:
+        The cost of each distinct network, and the ``(spec name, agent label)`` pairs whose
+        agents play a stand-in.
+    """
+    _check("probe_seconds", probe_seconds, 1e-3, integer=False)
+    costs: dict[str, TrainingCost] = {}
+    stand_in_agents: set[tuple[str, str]] = set()
+    for spec in specs:
+        for label, need in needed_networks(spec, expand(spec)):
+            key = need.request.key
+            if key not in costs:
+                costs[key] = _network(need, stand_ins, user_cache, probe_seconds, progress)
+            if not costs[key].cached:
+                stand_in_agents.add((spec.name, label))
+    return list(costs.values()), stand_in_agents
+
+
+def _network(
+    need: Needed, stand_ins: Path, user_cache: Path, probe_seconds: float, progress: TextIO | None
+) -> TrainingCost:
+    total, unit = need.work
+    key = need.request.key
+    if exists(need.request, user_cache):
+        source = artefact_path(need.request, user_cache)
+        target = artefact_path(need.request, stand_ins)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        target.symlink_to(source.resolve(), target_is_directory=True)
+        seconds = float(read_manifest(source).get("info", {}).get("seconds", 0.0))
+        return TrainingCost(key, need.label, seconds, True, 0, total, unit)
+    torch_module("ddqn" if unit == "steps" else "alphazero")  # imported before the clock starts
+    probe = _Probe(probe_seconds, getattr(need.args, "learning_starts", 0))
+    bar = None
+    if progress is not None:
+        bar = Progress(total, 0, f"timing training {need.label}", progress, unit=unit)
+    try:
+        weights, info = need.train(probe.step if bar is None else probe.drawing(bar))
+    finally:
+        if bar is not None:
+            bar.close()
+    save(need.request, weights, {**info, "stand_in": True}, stand_ins)
+    return TrainingCost(key, need.label, probe.projected(total), False, probe.done, total, unit)
+
+
+class _Probe:
+    """Stops training after ``seconds``; projects the rest from the rate after ``warm_up``.
+
+    It stops once ``seconds`` have passed and the rate has been measured past the warm-up for
+    at least half of them (or training ended).
+    """
+
+    def __init__(self, seconds: float, warm_up: int) -> None:
+        self.seconds, self.warm_up = seconds, warm_up
+        self.start = time.perf_counter()
+        self.done = 0
+        self.elapsed = 0.0
+        self._mark: tuple[float, int] | None = None  # (elapsed, done) once warmed up
+
+    def step(self, done: int, total: int) -> bool:
+        """Record ``done`` units now; True: enough is measured, stop training."""
+        self.done, self.elapsed = done, time.perf_counter() - self.start
+        if self._mark is None and done > self.warm_up:
+            self._mark = (self.elapsed, done)
+        if self._mark is None or self.elapsed < self.seconds:
+            return False
+        return self.elapsed - self._mark[0] >= self.seconds / 2
+
+    def drawing(self, bar: Progress) -> Callable[[int, int], bool]:
+        """:meth:`step`, also advancing ``bar``."""
+
+        def step(done: int, total: int) -> bool:
+            bar.advance(to=done)
+            return self.step(done, total)
+
+        return step
+
+    def projected(self, total: int) -> float:
+        """Elapsed time plus the rest at the rate measured after the warm-up."""
+        if self.done >= total:
+            return self.elapsed
+        rate = self.done / max(self.elapsed, 1e-9)
+        if self._mark is not None and self.done > self._mark[1]:
+            rate = (self.done - self._mark[1]) / max(self.elapsed - self._mark[0], 1e-9)
+        return self.elapsed + (total - self.done) / rate
+
+
+def _groups(spec: ExperimentSpec) -> dict[tuple[int, str, str], list[Trial]]:
+    groups: dict[tuple[int, str, str], list[Trial]] = {}
+    for trial in expand(spec):
+        key = (trial.cell.index, trial.cell.notification, trial.agent.label)
+        groups.setdefault(key, []).append(trial)
+    return groups
+
+
+def estimate(
+    spec: ExperimentSpec,
+    samples: int = 2,
+    progress: TextIO | None = None,
+    cell_seconds: float = CELL_SECONDS,
+    at_horizon: frozenset[str] | set[str] = frozenset(),
+) -> list[CellCost]:
+    """Time up to ``samples`` seeds of every agent × cell here, within ``cell_seconds`` each.
+
+    The learning agents' networks must be in the cache (run inside :func:`stand_in_cache` after
+    :func:`estimate_training`, or after ``ns-pz train``); a missing one would be trained here.
+
+    Args:
+        spec: The experiment.
+        samples: Seeds timed per agent and cell.
+        progress: Where to draw a progress line over the groups (``None``: none).
+        cell_seconds: Cap on the seconds spent on one agent in one cell.
+        at_horizon: Agent labels whose trials are projected to the horizon (stand-in networks).
+
+    Raises:
+        TypeError, ValueError: ``samples`` or ``cell_seconds`` out of range.
+        RuntimeError: A sampled trial failed (its error is in the message).
+    """
+    _check("samples", samples, 1, integer=True)
+    _check("cell_seconds", cell_seconds, 1e-3, integer=False)
+    groups = _groups(spec)
+    bar = None
+    if progress is not None:
+        label = f"estimate {spec.name} ({spec.size})"
+        bar = Progress(len(groups), 0, label, progress, unit="cells")
+    costs = []
+    try:
+        for trials in groups.values():
+            horizon = trials[0].agent.label in at_horizon
+            costs.append(_time_group(spec, trials, samples, cell_seconds, horizon))
+            if bar is not None:
+                bar.advance()
+    finally:
+        if bar is not None:
+            bar.close()
+    return costs
+
+
+def _time_group(
+    spec: ExperimentSpec, trials: list[Trial], samples: int, cap: float, at_horizon: bool
+) -> CellCost:
+    """Time up to ``samples`` of ``trials`` (one agent, one cell) within ``cap`` seconds."""
+    times: list[float] = []
+    cpu_times: list[float] = []
+    projected = at_horizon
+    start = time.perf_counter()
+    for trial in trials[:samples]:
+        left = cap - (time.perf_counter() - start)
+        if times and left <= 0:
+            break
+        seconds, cpu, cut = _time_trial(spec, trial, left, at_horizon)
+        times.append(seconds)
+        cpu_times.append(cpu)
+        projected = projected or cut
+        if cut:  # the cap is spent
+            break
+    first = trials[0]
+    return CellCost(
+        first.cell.setting,
+        LEVEL_LABELS[first.cell.notification],
+        first.agent.label,
+        sum(times) / len(times),
+        len(trials),
+        sum(cpu_times) / len(cpu_times),
+        projected,
+    )
+
+
+def _time_trial(
+    spec: ExperimentSpec, trial: Trial, cap: float, at_horizon: bool
+) -> tuple[float, float, bool]:
+    """``(wall s, CPU s, cut)`` of one trial: as played, or projected to the horizon.
+
+    The episode is cut (``cut`` True) once ``cap`` seconds have passed and it has made two
+    steps; a cut episode, or any episode with ``at_horizon``, is projected to the horizon from
+    the time of its steps after the first (the first also pays one-off costs, such as loading
+    compiled search kernels, that the other steps do not repeat).
+    """
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    first = (wall0, cpu0)  # when the first step ended
+    cut = False
+    try:
+        env = spec.make_env(trial.cell)
+        agent = agent_entry(trial.agent.name).make(env, trial.agent.hyper)
+
+        def stop(steps: int) -> bool:
+            nonlocal cut, first
+            now = time.perf_counter()
+            if steps == 1:
+                first = (now, time.process_time())
+            cut = steps >= 2 and now - wall0 >= cap
+            return cut
+
+        episode = run_episode(env, agent, trial.seed, stop)
+    except KeyboardInterrupt:
+        raise
+    except Exception as error:
+        raise RuntimeError(f"trial {trial.key} failed: {error!r}") from error
+    wall2, cpu2 = time.perf_counter(), time.process_time()
+    steps = episode.length
+    if not (cut or at_horizon) or steps >= spec.horizon or steps < 2:
+        return wall2 - wall0, cpu2 - cpu0, cut
+    scale = (spec.horizon - 1) / (steps - 1)  # the steps after the first, to the horizon
+    wall = (first[0] - wall0) + (wall2 - first[0]) * scale
+    cpu = (first[1] - cpu0) + (cpu2 - first[1]) * scale
+    return wall, cpu, cut

@@ -1,0 +1,141 @@
+"""``bench estimate``: capped trial timing, training timed for seconds, what it says up front."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import pytest
+
+from ns_pz import cli
+from ns_pz.cli import main
+from ns_pz.experiments import load_spec
+from ns_pz.experiments.estimate import estimate, plan
+
+TINY = """
+version = 1
+name = "tiny"
+title = "tiny FrozenLake"
+env = "ns_pz/FrozenLake-v0"
+params = { slip = 0.7 }
+notifications = ["detailed", "none"]
+
+[change]
+kind = "single"
+param = "slip"
+first_step = 1
+to = [0.4, 0.9]
+
+[sizes.quick]
+episodes = 4
+horizon = 30
+
+[sizes.full]
+episodes = 6
+horizon = 30
+
+[[agents]]
+name = "random"
+
+[[agents]]
+name = "mcts"
+label = "MCTS"
+params = { iterations = 200, depth = 30 }
+"""
+
+
+def write_spec(folder: Path, text: str = TINY) -> Path:
+    """Write the spec file and return its path."""
+    path = folder / "tiny.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(autouse=True)
+def _tmp_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path / "cache"))
+
+
+def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
+    """One cost per agent × cell, projecting its full trial count; the CLI prints the total."""
+    experiment = load_spec(write_spec(tmp_path), "full")
+    costs = estimate(experiment, samples=1, cell_seconds=60.0)
+    assert len(costs) == 2 * 2 * 2
+    assert all(c.trials == 6 and c.seconds_per_trial > 0 for c in costs)
+    assert all(0 < c.cpu_seconds_per_trial and c.total_cpu_seconds > 0 for c in costs)
+    assert not any(c.at_horizon for c in costs)  # whole episodes, well within a minute
+    lines: list[str] = []
+    argv = ["bench", "estimate", str(write_spec(tmp_path)), "--samples", "1", "--workers", "2"]
+    assert main(argv, lines.append) == 0
+    assert lines[0].startswith("estimate: 0 network(s) to train")
+    assert "8 agent x cell group(s), up to 1 seed(s) each within 1 s per group" in lines[0]
+    assert "projected wall time on 2 worker(s)" in lines[-1]
+    assert "at this machine's present load;" in lines[-1] and "on idle cores" in lines[-1]
+    with pytest.raises(ValueError, match="samples=0 must be >= 1"):
+        estimate(experiment, samples=0)
+    with pytest.raises(ValueError, match="cell_seconds=0 must be >= 0.001"):
+        estimate(experiment, cell_seconds=0)
+
+
+def test_an_episode_over_the_cap_is_cut_and_projected_to_the_horizon(tmp_path: Path) -> None:
+    """A cell's timing stops at its cap; the time per step is projected to the horizon."""
+    experiment = load_spec(write_spec(tmp_path), "full")
+    costs = estimate(experiment, samples=2, cell_seconds=0.001)
+    mcts = [c for c in costs if c.agent == "MCTS"]
+    assert mcts and all(c.at_horizon for c in mcts)  # 200 iterations a step: cut after one
+    whole = estimate(experiment, samples=1, cell_seconds=60.0)
+    for cut, played in zip(costs, whole, strict=True):
+        if cut.agent == "MCTS":  # the horizon bounds the played episode from above
+            assert cut.seconds_per_trial > 0.5 * played.seconds_per_trial
+
+
+def test_plan_says_what_it_will_do_and_how_long(tmp_path: Path) -> None:
+    """The plan counts groups and networks and bounds the time before anything runs."""
+    experiment = load_spec(write_spec(tmp_path), "full")
+    what = plan([experiment], samples=2, cell_seconds=1.5, probe_seconds=4.0)
+    assert (what.groups, what.networks, what.cached) == (8, 0, 0)
+    assert what.most_seconds == 8 * 1.5
+    assert "at most about 0.2 min" in what.text()
+    with pytest.raises(TypeError, match="samples=1.5 must be an integer >= 1"):
+        plan([experiment], samples=1.5)  # type: ignore[arg-type]
+
+
+def test_estimate_draws_a_progress_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`bench estimate` reports its groups on stderr as `bench run` does its trials."""
+    stream = io.StringIO()
+    estimate(load_spec(write_spec(tmp_path), "full"), samples=2, progress=stream)
+    assert stream.getvalue().splitlines()[-1].startswith("estimate tiny (full) [")
+    assert "8/8 cells" in stream.getvalue()
+    main(["bench", "estimate", str(write_spec(tmp_path)), "--samples", "1"], print)
+    assert "estimate tiny (full) [" in capsys.readouterr().err
+
+
+def test_an_interrupted_estimate_does_not_promise_a_resume(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Ctrl-C in ``estimate`` says nothing was saved; in ``run`` it says how to continue."""
+
+    def interrupted(args: object, out: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "bench_estimate", interrupted)
+    assert main(["bench", "estimate", str(write_spec(tmp_path))], print) == 130
+    err = capsys.readouterr().err
+    assert "nothing was saved" in err and "--resume" not in err
+    monkeypatch.setattr(cli, "bench_run", interrupted)
+    assert main(["bench", "run", str(write_spec(tmp_path))], print) == 130
+    assert "--resume continues" in capsys.readouterr().err
+
+
+def test_help_shows_the_defaults_and_no_markup(capsys: pytest.CaptureFixture[str]) -> None:
+    """``--help`` has no reST double backticks; the defaults and sizes are explained."""
+    for argv in (["--help"], ["bench", "estimate", "--help"], ["bench", "run", "--help"]):
+        with pytest.raises(SystemExit):
+            main(argv)
+        text = capsys.readouterr().out
+        assert "``" not in text
+    with pytest.raises(SystemExit):
+        main(["bench", "estimate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "seeds timed per cell (default: 2)" in text
+    assert "quick: a smaller run of every table" in text
