@@ -7,6 +7,7 @@ change on. The bounds are stated per test, with the figures measured when they w
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 import numpy as np
@@ -820,3 +821,24 @@ def test_a_nan_prediction_error_is_an_alarm():
     observation = _observation(0, state, 0, broken)
     flags, _ = monitor.notify(observation, None, memory, np.random.default_rng(0))
     assert any(flags) and memory.alarms == [0]
+
+
+def test_false_alarms_before_the_first_change_are_told_from_re_alarms():
+    """Pre-change false alarms (ARL₀'s) and post-change ones are counted apart; delay quantiles.
+
+    Before, one ``false_alarms`` mixed them: with the change at step 1 of the shipped specs,
+    nearly every reported false alarm was a re-alarm after the detection.
+    """
+    episode = score_episode([5], [-1, 2, 5, 7, 9], 20)
+    assert (episode.pre_change_steps, episode.pre_change_false_alarms) == (5, 2)
+    assert episode.post_change_false_alarms == 2 and episode.false_alarms == 4
+    quiet = score_episode([], [3], 10)
+    assert (quiet.pre_change_steps, quiet.pre_change_false_alarms) == (10, 1)
+    delays = [0, 0, 1, 2, 3, 4, 5, 6, 7, 30]
+    summary = detection_metrics([([1], [1 + d, 60], 100) for d in delays] + [([], [3], 10)])
+    assert summary.mean_delay == pytest.approx(5.8)
+    assert summary.median_delay == 3.5 and summary.p90_delay == pytest.approx(9.3)
+    assert (summary.pre_change_steps, summary.pre_change_false_alarms) == (20, 1)
+    assert summary.post_change_false_alarms == 10
+    assert summary.pre_change_false_alarms_per_1000 == pytest.approx(50.0)
+    assert math.isnan(detection_metrics([([], [], 5)]).median_delay)
