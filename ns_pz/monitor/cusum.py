@@ -156,7 +156,15 @@ class TabularCusumMonitor(Detector):
         threshold: The alarm threshold ``h`` on ``max_g W_g`` (nats). Larger: fewer false alarms,
             longer delays. On FrozenLake 4x4 (slip 0.7 → 0.4, uniform random states and
             actions) ``h = 6, 8, 10, 12`` gave about 13, 2.3, 0.4, 0 false alarms per 1,000
-            steps and mean delays of 22, 44, 44, 55 steps (30 runs each).
+            steps and mean delays of 22, 44, 44, 55 steps (30 runs each). One CUSUM alone
+            would guarantee ARL₀ ≥ ``e^h`` steps to a false alarm in an unchanging world; the
+            maximum over a bank of ``G`` CUSUMs (231 grid points over 3 outcomes, 1,771 over 4)
+            alarms sooner. Measured, FrozenLake 4x4 at slip (0.7, 0.15, 0.15), uniform random
+            states and actions, 20 runs each: ``h = 4, 6, 8, 10`` gave ARL₀ ≈ 45, 170, 1,010,
+            6,361 steps (``e^h`` = 55, 403, 2,981, 22,026): so for a target ARL₀ of a few
+            hundred steps or more take ``h ≈ ln(ARL₀) + 1.3`` there; ``h = ln(G · ARL₀)`` (a
+            union bound over the bank) is safe but conservative. A deterministic θ_0 raises no
+            false alarm before a change.
         grid_step: Spacing of the grid over a probability vector's simplex (every vector whose
             entries are multiples of ``grid_step``; must divide 1). ``0.05`` gives 231 points
             for 3 outcomes and 1,771 for 4.
