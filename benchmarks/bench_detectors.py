@@ -25,7 +25,8 @@ What a detector can see depends on the trajectory, so the table names the agent 
 Run: ``python benchmarks/bench_detectors.py`` (``--size full``, ``--agents random snapshot_vi``,
 ``--specs ...``, ``--max-delay N``; ``--smoke``: two episodes per setting, a seconds-long check
 that it runs). ``--learned`` prints instead the table of a learned monitor against
-never/always-alarm and the CUSUM (:mod:`learned_monitor`).
+never/always-alarm and the CUSUM (:mod:`learned_monitor`); ``--river`` the CUSUM bank beside
+river's drift detectors on synthetic streams with an unchanging control (:mod:`river_detectors`).
 """
 
 from __future__ import annotations
@@ -126,7 +127,16 @@ def main() -> None:
     parser.add_argument("--train-steps", type=int, default=60_000)
     parser.add_argument("--train-seeds", type=int, default=3)
     parser.add_argument("--eval-episodes", type=int, default=200)
+    parser.add_argument(
+        "--river", action="store_true", help="beside river's detectors (needs river) instead"
+    )
+    parser.add_argument("--seeds", type=int, default=20, help="streams per setting (--river)")
     args = parser.parse_args()
+    if args.river:
+        from river_detectors import print_table as river_table  # benchmarks/river_detectors.py
+
+        river_table(2 if args.smoke else args.seeds)
+        return
     if args.learned:
         from learned_monitor import print_table  # benchmarks/learned_monitor.py
 
