@@ -105,7 +105,7 @@ def cusum_policy(env: Any) -> tuple[Callable[[Any], Any], Callable[[], None]]:
 def first_impossible(obs: Any) -> Any:
     """Alarm on the first transition impossible under θ_0, never again."""
     memory = obs["memory"]
-    return [int(memory[2] >= 1 and memory[1] == 0)]
+    return [int(memory[2] > 0 and memory[1] == 0)]
 
 
 def rows(train_steps: int, train_seeds: int, episodes: int) -> list[tuple[str, str, str, str]]:

@@ -786,7 +786,7 @@ def test_the_last_transition_is_judged_in_the_seat_and_the_game():
 def _first_impossible(obs):
     """Alarm on the first transition impossible under θ_0; never again (one bit of memory)."""
     memory = obs["memory"]
-    return np.array([int(memory[2] >= 1 and memory[1] == 0)], np.int64)
+    return np.array([int(memory[2] > 0 and memory[1] == 0)], np.int64)
 
 
 def test_monitor_features_give_memory_and_a_trained_policy_sees_the_same_in_the_view():
@@ -817,7 +817,7 @@ def test_monitor_features_give_memory_and_a_trained_policy_sees_the_same_in_the_
         t += 1
         done = terminated or truncated
     assert len(seat_alarms) == 1 and seat_alarms[0] >= 5
-    assert obs["memory"][1] == 1.0  # one alarm raised
+    assert obs["memory"][1] == 0.5  # one alarm raised: 1 / (1 + 1)
     view = ns_pz.make_gym(
         "ns_pz/CliffWalking-v0",
         monitor=PolicyMonitor(_first_impossible, features=features),

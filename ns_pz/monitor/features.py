@@ -8,10 +8,12 @@ from θ_0 only (never θ or the change times), so a learner can act like a detec
 
 * ``clock``: ``Box(0, 1, (1,))``, the transitions so far divided by the horizon given; it
   replaces the unnormalised ``relative_time``.
-* ``memory``: ``Box(0, inf, (5,))``, in this order:
+* ``memory``: ``Box(0, 1, (5,))``, in this order, each count ``n`` squashed to ``n / (1 + n)``
+  (0 stays 0, 1 becomes 0.5: bounded inputs suit a network, and what a policy needs most,
+  "none" or "at least one", stays plain):
 
   0. transitions since the monitor's last alarm (since reset before the first), divided by the
-     horizon;
+     horizon (not squashed; clipped at 1);
   1. alarms the monitor has raised this episode;
   2. transitions since the last alarm that are impossible under θ_0;
   3. transitions since the last alarm that are unlikely under θ_0 (probability below
@@ -132,7 +134,7 @@ class MonitorFeatures:
             {
                 **kept,
                 "clock": spaces.Box(0.0, 1.0, (1,), np.float32),
-                "memory": spaces.Box(0.0, np.inf, (len(MEMORY_FIELDS),), np.float32),
+                "memory": spaces.Box(0.0, 1.0, (len(MEMORY_FIELDS),), np.float32),
             }
         )
 
@@ -183,10 +185,10 @@ class MonitorFeatures:
             "memory": np.array(
                 [
                     min(memory.since_alarm / horizon, 1.0),
-                    memory.alarms,
-                    memory.impossible,
-                    memory.unlikely,
-                    memory.surprise,
+                    _squash(memory.alarms),
+                    _squash(memory.impossible),
+                    _squash(memory.unlikely),
+                    _squash(memory.surprise),
                 ],
                 np.float32,
             ),
@@ -197,3 +199,8 @@ class MonitorFeatures:
             f"MonitorFeatures(horizon={self.horizon}, evidence={self.evidence}, "
             f"unlikely={self.unlikely})"
         )
+
+
+def _squash(value: float) -> float:
+    """``value / (1 + value)`` for ``value >= 0``: in [0, 1), 0 at 0, 0.5 at 1."""
+    return value / (1.0 + value)
