@@ -21,7 +21,7 @@ Run: ``python benchmarks/bench_detectors.py --learned`` (``--train-steps N``,
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from functools import partial
 from typing import Any
 
@@ -108,8 +108,8 @@ def first_impossible(obs: Any) -> Any:
     return [int(memory[2] > 0 and memory[1] == 0)]
 
 
-def rows(train_steps: int, train_seeds: int, episodes: int) -> list[tuple[str, str, str, str]]:
-    """(policy, mean ± s.e., alarms per episode, training cost) for each policy."""
+def rows(train_steps: int, train_seeds: int, episodes: int) -> Iterator[tuple[str, str, str, str]]:
+    """(policy, mean ± s.e., alarms per episode, training cost) for each policy, as measured."""
     import torch
     from stable_baselines3 import PPO
 
@@ -117,17 +117,18 @@ def rows(train_steps: int, train_seeds: int, episodes: int) -> list[tuple[str, s
 
     features = MonitorFeatures(horizon=HORIZON)
     plain, rich = seat(None), seat(features)
-    table = []
 
-    def row(name: str, result: tuple[float, float, float], cost: str = "") -> None:
+    def row(
+        name: str, result: tuple[float, float, float], cost: str = ""
+    ) -> tuple[str, str, str, str]:
         mean, error, alarms = result
-        table.append((name, f"{mean:.2f} ± {error:.2f}", f"{alarms:.2f}", cost))
+        return name, f"{mean:.2f} ± {error:.2f}", f"{alarms:.2f}", cost
 
-    row("never alarm", evaluate(plain, lambda obs: [0], episodes))
-    row("always alarm", evaluate(plain, lambda obs: [1], episodes))
-    row("first impossible (features)", evaluate(rich, first_impossible, episodes))
+    yield row("never alarm", evaluate(plain, lambda obs: [0], episodes))
+    yield row("always alarm", evaluate(plain, lambda obs: [1], episodes))
+    yield row("first impossible (features)", evaluate(rich, first_impossible, episodes))
     act, reset = cusum_policy(plain)
-    row("TabularCusumMonitor(h=10)", evaluate(plain, act, episodes, reset))
+    yield row("TabularCusumMonitor(h=10)", evaluate(plain, act, episodes, reset))
     for seed in range(train_seeds):
         env = seat(features)
         start = time.perf_counter()
@@ -135,8 +136,7 @@ def rows(train_steps: int, train_seeds: int, episodes: int) -> list[tuple[str, s
         model.learn(total_timesteps=train_steps)
         seconds = time.perf_counter() - start
         result = evaluate(rich, partial(_greedy, model), episodes)
-        row(f"PPO + features, seed {seed}", result, f"{train_steps:,} steps, {seconds:.0f} s")
-    return table
+        yield row(f"PPO + features, seed {seed}", result, f"{train_steps:,} steps, {seconds:.0f} s")
 
 
 def _greedy(model: Any, obs: Any) -> Any:
