@@ -135,7 +135,7 @@ def main() -> None:
     if args.river:
         from river_detectors import print_table as river_table  # benchmarks/river_detectors.py
 
-        river_table(2 if args.smoke else args.seeds)
+        river_table(1 if args.smoke else args.seeds)
         return
     if args.learned:
         from learned_monitor import print_table  # benchmarks/learned_monitor.py

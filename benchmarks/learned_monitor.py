@@ -11,7 +11,7 @@ the seat over the same evaluation seeds:
   on the first transition impossible under θ_0, never again;
 * **CUSUM**: :class:`~ns_pz.monitor.TabularCusumMonitor` (``h = 10``) reading the seat's
   monitor observation;
-* **PPO**: Stable-Baselines3 PPO (``MultiInputPolicy``, defaults) trained in the seat with
+* **PPO**: Stable-Baselines3 PPO (``MultiInputPolicy``, SB3's defaults) trained in the seat with
   :class:`~ns_pz.monitor.MonitorFeatures`, one row per training seed, with its training time.
 
 Run: ``python benchmarks/bench_detectors.py --learned`` (``--train-steps N``,
@@ -132,7 +132,8 @@ def rows(train_steps: int, train_seeds: int, episodes: int) -> Iterator[tuple[st
     for seed in range(train_seeds):
         env = seat(features)
         start = time.perf_counter()
-        model = PPO("MultiInputPolicy", env, seed=seed, device="cpu", verbose=0)
+        rollout = min(2048, train_steps)  # SB3's default, or less for a smoke run
+        model = PPO("MultiInputPolicy", env, n_steps=rollout, seed=seed, device="cpu", verbose=0)
         model.learn(total_timesteps=train_steps)
         seconds = time.perf_counter() - start
         result = evaluate(rich, partial(_greedy, model), episodes)

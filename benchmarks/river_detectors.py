@@ -8,12 +8,12 @@ state drawn from the family's outcome table under θ_0 before the change and θ_
 * CliffWalking, slip 1.0 → 0.8 (equal split).
 
 River's detectors see one number per transition, the natural per-step statistic of a tabular
-world: 1 if the move went as intended (the next state is the intended outcome's), else 0
-(DDM and HDDM_W, river's detectors of error rates, see 1 for a move not as intended). ``TabularCusumMonitor``
-sees the transition itself. River's detectors restart themselves after a drift; every
-``drift_detected`` is an alarm. Scores (:func:`ns_pz.monitor.detection_metrics`): detection
-rate, median delay (the first alarm at or after the change), and pre-change false alarms per
-1,000 pre-change steps (in the control: per 1,000 steps, ``1000 / ARL₀``).
+world: 1 if the move went as intended (the next state is the intended outcome's), else 0 (DDM
+and HDDM_W, river's detectors of error rates, see 1 for a move not as intended).
+``TabularCusumMonitor`` sees the transition itself. River's detectors restart themselves after a
+drift; every ``drift_detected`` is an alarm. Scores (:func:`ns_pz.monitor.detection_metrics`):
+detection rate, median delay (the first alarm at or after the change), and pre-change false
+alarms per 1,000 pre-change steps (in the control: per 1,000 steps, ``1000 / ARL₀``).
 
 Run: ``python benchmarks/bench_detectors.py --river`` (needs ``pip install river``).
 """
