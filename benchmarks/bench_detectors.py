@@ -6,8 +6,14 @@ detector cell (the spec's env, θ_0, change and horizon, the detector at its lev
 asked for, one episode per seed of the spec's size; the change times and the alarms are scored
 with :func:`ns_pz.monitor.detection_metrics`:
 
-* **delay**: mean steps from a change to the alarm that detects it (the oracle's is 0);
-* **FA/1k**: false alarms per 1,000 steps;
+* **delay**: steps from a change to the alarm that detects it (the oracle's is 0; an alarm on
+  the change's first transition is 0, Lorden's convention counts it 1), as mean / median / 90th
+  percentile;
+* **pre FA/1k**: false alarms before the first change per 1,000 pre-change steps; in the
+  ``control`` row (the same env, θ_0, detector, agent and seeds, nature static) that is
+  ``1000 / ARL₀``, the rate the literature calls the false-alarm rate;
+* **post FA/1k**: the other false alarms (re-alarms after a detection, while the detector learns
+  the new θ) per 1,000 steps after the first change;
 * **missed**: changes never detected (an episode may end first: FrozenLake's often do).
 
 Without ``--max-delay`` any later alarm inside a change's interval detects it, so a detector
@@ -18,7 +24,9 @@ What a detector can see depends on the trajectory, so the table names the agent 
 
 Run: ``python benchmarks/bench_detectors.py`` (``--size full``, ``--agents random snapshot_vi``,
 ``--specs ...``, ``--max-delay N``; ``--smoke``: two episodes per setting, a seconds-long check
-that it runs).
+that it runs). ``--learned`` prints instead the table of a learned monitor against
+never/always-alarm and the CUSUM (:mod:`learned_monitor`); ``--river`` the CUSUM bank beside
+river's drift detectors on synthetic streams with an unchanging control (:mod:`river_detectors`).
 """
 
 from __future__ import annotations
@@ -29,9 +37,10 @@ from typing import Any
 
 from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.evaluation import run_episode
+from ns_pz.envs.registry import make_gym
 
 from ns_pz.experiments.spec import DETECTOR, Cell, ExperimentSpec, load_spec
-from ns_pz.monitor import detection_metrics
+from ns_pz.monitor import DetectionSummary, detection_metrics
 
 SPECS = ("frozenlake-single", "cliffwalking-single", "cartpole-single")
 
@@ -51,12 +60,13 @@ def measure(
     if spec.monitor is None:
         raise ValueError(f"spec {spec.name!r} has no [monitor] table (no detector column)")
     rows = []
-    for index, setting in enumerate(spec.settings()):
+    settings: list[Any] = [*spec.settings(), "control"]
+    for index, setting in enumerate(settings):
         cell = Cell(setting, DETECTOR, index)
         start = time.perf_counter()
         scored = []
         for seed in list(spec.seeds())[:episodes]:
-            env = spec.make_env(cell)
+            env = spec.make_env(cell) if setting != "control" else control_env(spec)
             agent = agent_entry(agent_name).make(env, hyper_of(spec, agent_name))
             episode = run_episode(env, agent, seed)
             scored.append((episode.change_times, episode.alarm_times, episode.length))
@@ -74,6 +84,32 @@ def measure(
     return rows
 
 
+def control_env(spec: ExperimentSpec) -> Any:
+    """The spec's detector cell without a change: the same env, θ_0, detector and horizon."""
+    assert spec.monitor is not None  # measure() checked
+    return make_gym(
+        spec.env,
+        params=spec.theta0(),
+        notification=spec.level_of(DETECTOR),
+        monitor=spec.monitor.make(),
+        max_episode_steps=spec.horizon,
+        **spec.env_kwargs,
+    )
+
+
+def cells(s: DetectionSummary) -> str:
+    """The delay and false-alarm cells of one row."""
+    delay = (
+        "n/a"
+        if s.detected == 0
+        else f"{s.mean_delay:.1f} / {s.median_delay:.0f} / {s.p90_delay:.0f}"
+    )
+    post_steps = s.steps - s.pre_change_steps
+    pre = "n/a" if not s.pre_change_steps else f"{s.pre_change_false_alarms_per_1000:.2f}"
+    post = "n/a" if not post_steps else f"{1000.0 * s.post_change_false_alarms / post_steps:.2f}"
+    return f"{s.missed} | {delay} | {pre} | {post}"
+
+
 def main() -> None:
     """Print the table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -85,13 +121,36 @@ def main() -> None:
     parser.add_argument(
         "--max-delay", type=int, default=None, help="alarms later than this are false alarms"
     )
+    parser.add_argument(
+        "--learned", action="store_true", help="the learned-monitor table (needs SB3) instead"
+    )
+    parser.add_argument("--train-steps", type=int, default=60_000)
+    parser.add_argument("--train-seeds", type=int, default=3)
+    parser.add_argument("--eval-episodes", type=int, default=200)
+    parser.add_argument(
+        "--river", action="store_true", help="beside river's detectors (needs river) instead"
+    )
+    parser.add_argument("--seeds", type=int, default=20, help="streams per setting (--river)")
     args = parser.parse_args()
+    if args.river:
+        from river_detectors import print_table as river_table  # benchmarks/river_detectors.py
+
+        river_table(1 if args.smoke else args.seeds)
+        return
+    if args.learned:
+        from learned_monitor import print_table  # benchmarks/learned_monitor.py
+
+        steps, seeds, episodes = args.train_steps, args.train_seeds, args.eval_episodes
+        if args.smoke:
+            steps, seeds, episodes = 256, 1, 2
+        print_table(steps, seeds, episodes)
+        return
     cap = 2 if args.smoke else args.episodes
     print(
         "| spec | detector | setting | agent | episodes | steps | changes | missed | "
-        "mean delay | FA/1k | s |"
+        "delay mean / median / p90 | pre FA/1k | post FA/1k | s |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in args.specs:
         spec = load_spec(name, args.size)
         available = {a.name for a in spec.agents}
@@ -101,11 +160,10 @@ def main() -> None:
             episodes = spec.episodes if cap is None else min(cap, spec.episodes)
             for row in measure(spec, agent_name, episodes, args.max_delay):
                 s = row["summary"]
-                delay = "n/a" if s.detected == 0 else f"{s.mean_delay:.1f}"
                 print(
                     f"| {row['spec']} | {row['monitor']} | {row['setting']} | {row['agent']} | "
-                    f"{s.episodes} | {s.steps} | {s.changes} | {s.missed} | {delay} | "
-                    f"{s.false_alarms_per_1000:.2f} | {row['seconds']:.1f} |"
+                    f"{s.episodes} | {s.steps} | {s.changes} | {cells(s)} | "
+                    f"{row['seconds']:.1f} |"
                 )
 
 

@@ -80,12 +80,13 @@ def run_episode(case: dict, seed: int) -> tuple[list[float], list[int], tuple[in
     alarms, statistic, done, steps = [], [], False, 0
     while not done:
         action = case["policy"](observation, rng)
-        next_observation, _, terminated, truncated, _ = env.step(action)
+        next_observation, reward, terminated, truncated, _ = env.step(action)
         done = terminated or truncated
         if not done:  # the monitor speaks about a transition only if the episode goes on
             seen = {
                 "last_state": observation["state"],
                 "last_action": action,
+                "last_reward": np.array([reward], np.float32),
                 "state": next_observation["state"],
                 "relative_time": next_observation["relative_time"],
             }

@@ -86,7 +86,9 @@ class NSGame(AECEnv):
             (nothing, the default), ``"detection"`` (:class:`~ns_pz.monitor.DetectionReward`)
             or a function ``fn(process, flags) -> float`` of the flags just sent (as in
             :func:`~ns_pz.seats.single_agent`). It is the monitor's reward of that step and
-            what ``last()`` gives the monitor at its next turn.
+            what ``last()`` gives the monitor at its next turn. The episode's last transition,
+            which no monitor turn follows, pays the monitor as silence about it, at the
+            decision turn that ends the episode.
         render_mode: ``None``, or one of the family's modes (``"human"``, ``"rgb_array"``, and
             ``"ansi"`` for grid worlds): :meth:`render` draws the environment's state under the
             θ in force; ``"human"`` redraws after every reset and transition.
@@ -297,10 +299,15 @@ class NSGame(AECEnv):
         nature_reward = self._nature_reward.per_step(reward)
         if process.done:
             nature_reward += self._nature_reward.at_end(process)
-        self.rewards = {NATURE: nature_reward, MONITOR: 0.0, DECISION: reward}
+        monitor_reward = 0.0
+        if process.done and self._monitor_reward is not None:
+            # No monitor turn follows the last transition: it is paid as silence about it.
+            monitor_reward = float(self._monitor_reward(process, process.no_change))
+        self.rewards = {NATURE: nature_reward, MONITOR: monitor_reward, DECISION: reward}
         self._rewarded = True
         totals = self._cumulative_rewards
         totals[NATURE] += nature_reward
+        totals[MONITOR] += monitor_reward
         totals[DECISION] += reward
         if terminated or truncated:
             self.terminations = dict.fromkeys(AGENTS, bool(terminated))

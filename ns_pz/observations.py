@@ -10,7 +10,9 @@ Decision agent (and the Gymnasium view), a flat ``Dict``:
 Nature: see :mod:`ns_pz.nature.interface` (one encoding for the game and every learner).
 
 Monitor: a ``Dict`` of the last transition (``last_state``, ``last_action``, ``last_reward``,
-``state``) and ``relative_time``; it acts with a ``Dict`` of ``env_change`` and
+``state``) and ``relative_time`` (for a learned monitor with
+:class:`~ns_pz.monitor.MonitorFeatures`, a normalised ``clock`` and a ``memory`` of evidence
+instead of ``relative_time``); it acts with a ``Dict`` of ``env_change`` and
 ``delta_change``, the notification it wants the agent to get, or (for learners and libraries
 that refuse ``Dict`` actions) with the flags alone, ``MultiDiscrete([2] * n)``.
 
@@ -28,6 +30,7 @@ from ns_pz.family import EnvFamily
 from ns_pz.params import Params
 
 if TYPE_CHECKING:
+    from ns_pz.monitor.features import MonitorFeatures
     from ns_pz.process import NSProcess
 
 
@@ -44,9 +47,11 @@ def agent_observation_space(family: EnvFamily) -> spaces.Dict:
     )
 
 
-def monitor_observation_space(family: EnvFamily) -> spaces.Dict:
-    """The last transition and the clock."""
-    return spaces.Dict(
+def monitor_observation_space(
+    family: EnvFamily, features: MonitorFeatures | None = None
+) -> spaces.Dict:
+    """The last transition and the clock; with ``features``, the normalised clock and memory."""
+    space = spaces.Dict(
         {
             "last_state": family.observation_space,
             "last_action": family.action_space,
@@ -55,6 +60,7 @@ def monitor_observation_space(family: EnvFamily) -> spaces.Dict:
             "relative_time": _CLOCK,
         }
     )
+    return space if features is None else features.observation_space(space)
 
 
 def monitor_action_space(params_cls: type[Params]) -> spaces.Dict:

@@ -23,6 +23,7 @@ import gymnasium as gym
 from gymnasium import spaces
 
 from ns_pz.checks import flag
+from ns_pz.monitor.features import MonitorFeatures
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor, as_flags
 from ns_pz.monitor.scoring import (  # DetectionReward: still importable from here, its old home
@@ -53,6 +54,7 @@ def single_agent(
     nature_observes_state: bool = False,
     default_step: float = DEFAULT_STEP,
     monitor_reward: MonitorRewardFn | str | None = None,
+    monitor_features: MonitorFeatures | None = None,
     deterministic: bool = True,
     **env_kwargs: Any,
 ) -> gym.Env:
@@ -80,7 +82,12 @@ def single_agent(
             ``fn(process, flags) -> float``; an object with a ``reset()`` method (a
             :class:`~ns_pz.monitor.DetectionReward` of your own λ) is copied, so one instance
             may serve several environments. Required for
-            ``learner="monitor"``.
+            ``learner="monitor"``. The episode's last transition, which no monitor turn
+            follows, is paid as if the monitor stayed silent about it (with the last step's
+            reward): a change still undetected then is charged.
+        monitor_features: A :class:`~ns_pz.monitor.MonitorFeatures` giving the learning
+            monitor memory (a normalised clock, evidence since its last alarm); put the trained
+            policy back with ``PolicyMonitor(model, features=<the same>)``.
         deterministic: Ask SB3-style policies of the other seats deterministically; when
             sampling, they draw from the seed (see :func:`ns_pz.seat_policies.call_policy`).
         **env_kwargs: The environment's arguments (``params``, ``nature``, ``monitor``,
@@ -116,6 +123,7 @@ def single_agent(
         "nature_observes_state": nature_observes_state,
         "default_step": default_step,
         "monitor_reward": monitor_reward,
+        "monitor_features": monitor_features,
     }
     _check_seat_options(learner, policies, env_kwargs, **options)
     flag("deterministic", deterministic)
@@ -155,8 +163,11 @@ def _check_seat_options(
     nature_observes_state: bool,
     default_step: float,
     monitor_reward: MonitorRewardFn | str | None,
+    monitor_features: MonitorFeatures | None,
 ) -> None:
     """Refuse options outside their values, and options for a seat they would not reach."""
+    if monitor_features is not None and not isinstance(monitor_features, MonitorFeatures):
+        raise TypeError(f"monitor_features={monitor_features!r} must be None or MonitorFeatures")
     if nature_reward not in NATURE_REWARDS:
         raise ValueError(f"nature_reward={nature_reward!r}; allowed: {NATURE_REWARDS}")
     if nature_action not in NATURE_ACTIONS:
@@ -184,11 +195,12 @@ def _check_seat_options(
             )
         nature = policies[NATURE] if NATURE in policies else env_kwargs.get(NATURE)
         _check_nature_conventions(nature, nature_action, nature_observes_state, default_step)
-    if learner != MONITOR and monitor_reward is not None:
-        raise ValueError(
-            f"monitor_reward={monitor_reward!r} applies only when the monitor learns, not with "
-            f"learner={learner!r}"
-        )
+    for name, value in (("monitor_reward", monitor_reward), ("monitor_features", monitor_features)):
+        if learner != MONITOR and value is not None:
+            raise ValueError(
+                f"{name}={value!r} applies only when the monitor learns, not with "
+                f"learner={learner!r}"
+            )
 
 
 def _check_nature_conventions(
@@ -242,7 +254,7 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
         learner: ``"nature"`` or ``"monitor"``.
         decide: Plays the decision agent's turns.
         nature_reward / regret_reference / nature_action / nature_observes_state /
-        default_step / monitor_reward: As in :func:`single_agent`.
+        default_step / monitor_reward / monitor_features: As in :func:`single_agent`.
         render_mode: ``None`` or one of the family's modes, as for the view (a ``"human"``
             window is redrawn after every step of this environment).
         ground_truth_info: Put the θ of the last transition into ``info["theta"]``.
@@ -262,6 +274,7 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
         nature_observes_state: bool = False,
         default_step: float = DEFAULT_STEP,
         monitor_reward: MonitorRewardFn | str | None = None,
+        monitor_features: MonitorFeatures | None = None,
         render_mode: str | None = None,
         ground_truth_info: bool = False,
     ) -> None:
@@ -291,7 +304,11 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
                     "'detection' or a function fn(process, flags) -> float"
                 )
             self._monitor_reward = reward_fn
-            self.observation_space = monitor_observation_space(process.family)
+            self._features = monitor_features
+            self._feature_memory: Any = None
+            if monitor_features is not None:
+                monitor_features.bind(process.family, process.base_theta0)
+            self.observation_space = monitor_observation_space(process.family, monitor_features)
             self.action_space = monitor_flags_space(process.family.params_cls)
 
     @property
@@ -314,6 +331,8 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
             reset = getattr(self._monitor_reward, "reset", None)
             if callable(reset):
                 reset()
+            if self._features is not None:
+                self._feature_memory = self._features.initial_memory()
         process.play_until(self.learner, self._decide)
         if self.render_mode == "human":
             self.render()
@@ -339,7 +358,11 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
             flags = _flags_of(action, len(process.no_change))
             process.monitor_turn(flags, process.no_change)
             reward = monitor_reward_value(self._monitor_reward, process, flags)
+            if self._features is not None:
+                self._features.alarmed(self._feature_memory, flags)
             process.play_until(MONITOR, self._decide)
+            if process.done:  # no monitor turn follows the last transition: silence about it
+                reward += float(self._monitor_reward(process, process.no_change))
         terminated, truncated = process.ended if process.done else (False, False)
         if self.render_mode == "human":
             self.render()
@@ -349,7 +372,11 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
         process = self._process
         if self.learner == NATURE:
             return self._interface.observe(process)
-        return process.build.monitor(process)
+        observation = process.build.monitor(process)
+        if self._features is None:
+            return observation
+        self._features.update(self._feature_memory, observation)
+        return self._features.observation(observation, self._feature_memory)
 
     def ground_truth(self) -> Any:
         """The true θ trajectory of this episode (for evaluation)."""

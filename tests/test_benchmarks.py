@@ -56,7 +56,26 @@ def test_detector_benchmark_smoke_run():
     ).stdout
     for row in ("| frozenlake-single | cusum | p=0.4 | random | 2 |", "| cartpole-single | "):
         assert row in out
-    assert out.count("| cliffwalking-single | cusum |") == 3
+    assert out.count("| cliffwalking-single | cusum |") == 4  # three settings and the control
+    assert "| cliffwalking-single | cusum | control | random | 2 | 400 | 0 | 0 | n/a |" in out
+
+
+@pytest.mark.parametrize(
+    ("flag", "needs", "rows"),
+    [
+        ("--learned", "stable_baselines3", ("| never alarm |", "| PPO + features, seed 0 |")),
+        ("--river", "river", ("| river ADWIN |", "| TabularCusumMonitor(h=10) |")),
+    ],
+)
+def test_detector_benchmark_learned_and_river_smoke_runs(flag, needs, rows):
+    """--learned (a learned monitor) and --river (river's detectors) run, each with its extra."""
+    pytest.importorskip(needs)
+    bench = BENCH.parent / "bench_detectors.py"
+    out = subprocess.run(
+        [sys.executable, str(bench), flag, "--smoke"], capture_output=True, text=True, check=True
+    ).stdout
+    for row in rows:
+        assert row in out
 
 
 def test_adversary_benchmark_quick_run():

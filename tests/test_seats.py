@@ -805,3 +805,134 @@ def test_movable_drops_the_frozen_parameters_from_natures_action_space():
     assert moved == {"length", "force_mag"}
     assert truth.theta.length == pytest.approx(truth.theta0.length + 5 * 0.05)
     assert truth.theta.force_mag == pytest.approx(truth.theta0.force_mag + 5 * 0.5)
+
+
+# -- a monitor seat a learner can use ---------------------------------------------------------
+def _cliff_change_at(first: int):
+    from ns_pz.agents.exact import equal_split
+
+    from ns_pz.nature import DiscreteScheduler, DistributionStepWiseUpdate, ScriptedNature
+
+    return ScriptedNature(
+        {"slip": DistributionStepWiseUpdate(DiscreteScheduler({first}), [equal_split(0.5, 4)])}
+    )
+
+
+def test_the_last_transition_is_judged_in_the_seat_and_the_game():
+    """A change at the last transition, never flagged: charged 1 step in both (it was free).
+
+    score_episode counts it missed; summed, the detection reward is -(undetected time).
+    """
+    from ns_pz.monitor import score_episode
+
+    kwargs = {"nature": _cliff_change_at(4), "notification": "basic", "max_episode_steps": 5}
+    seat = ns_pz.single_agent(
+        "ns_pz/CliffWalking-v0",
+        MONITOR,
+        {DECISION: lambda obs: 0},
+        monitor_reward="detection",
+        **kwargs,
+    )
+    seat.reset(seed=0)
+    quiet, rewards, done = np.zeros(1, np.int64), [], False
+    while not done:
+        _, reward, terminated, truncated, _ = seat.step(quiet)
+        rewards.append(reward)
+        done = terminated or truncated
+    assert seat.unwrapped.ground_truth().change_times == (4,)
+    assert score_episode([4], [], 5).missed == 1
+    assert rewards == [0.0, 0.0, 0.0, 0.0, -1.0]
+    game = ns_pz.make(
+        "ns_pz/CliffWalking-v0", monitor_reward="detection", monitor_action="flags", **kwargs
+    )
+    game.reset(seed=0)
+    paid = 0.0
+    for agent in game.agent_iter():
+        _, reward, terminated, truncated, _ = game.last()
+        if agent == MONITOR:
+            paid += reward
+        if terminated or truncated:
+            game.step(None)
+        elif agent == MONITOR:
+            game.step(quiet)
+        elif agent == DECISION:
+            game.step(0)
+        else:
+            game.step(game.policy_action(agent))
+    assert paid == -1.0
+
+
+def _first_impossible(obs):
+    """Alarm on the first transition impossible under θ_0; never again (one bit of memory)."""
+    memory = obs["memory"]
+    return np.array([int(memory[2] > 0 and memory[1] == 0)], np.int64)
+
+
+def test_monitor_features_give_memory_and_a_trained_policy_sees_the_same_in_the_view():
+    """Clock in [0, 1], evidence since the last alarm; the seat and PolicyMonitor agree."""
+    from ns_pz.monitor import MonitorFeatures
+
+    features = MonitorFeatures(horizon=40)
+    kwargs = {"nature": _cliff_change_at(5), "notification": "basic", "max_episode_steps": 40}
+    walk = lambda obs: int(obs["relative_time"][0]) % 4  # noqa: E731
+    seat = ns_pz.single_agent(
+        "ns_pz/CliffWalking-v0",
+        MONITOR,
+        {DECISION: walk},
+        monitor_reward="detection",
+        monitor_features=features,
+        **kwargs,
+    )
+    check_env(seat, skip_render_check=True)
+    assert "relative_time" not in seat.observation_space.spaces
+    obs, _ = seat.reset(seed=3)
+    seat_alarms, t, done = [], 0, False
+    while not done:
+        assert obs["clock"][0] == pytest.approx(t / 40) and obs in seat.observation_space
+        flags = _first_impossible(obs)
+        if flags[0]:
+            seat_alarms.append(t - 1)
+        obs, _, terminated, truncated, _ = seat.step(flags)
+        t += 1
+        done = terminated or truncated
+    assert len(seat_alarms) == 1 and seat_alarms[0] >= 5
+    assert obs["memory"][1] == 0.5  # one alarm raised: 1 / (1 + 1)
+    view = ns_pz.make_gym(
+        "ns_pz/CliffWalking-v0",
+        monitor=PolicyMonitor(_first_impossible, features=features),
+        **kwargs,
+    )
+    obs, _ = view.reset(seed=3)
+    view_alarms, t, done = [], 0, False
+    while not done:
+        obs, _, terminated, truncated, _ = view.step(walk(obs))
+        t += 1
+        if obs["env_change"][0]:
+            view_alarms.append(t - 1)
+        done = terminated or truncated
+    assert view_alarms == seat_alarms
+
+
+def test_monitor_features_refuse_what_they_cannot_serve():
+    """No horizon, evidence on a family without outcome tables, a seat that is not the monitor."""
+    from ns_pz.monitor import MonitorFeatures
+
+    with pytest.raises(ValueError, match="horizon=0 must be an int >= 1"):
+        MonitorFeatures(horizon=0)
+    with pytest.raises(ValueError, match="unlikely=1.5"):
+        MonitorFeatures(horizon=10, unlikely=1.5)
+    with pytest.raises(TypeError, match="evidence=False"):
+        ns_pz.single_agent(
+            "ns_pz/CartPole-v0",
+            MONITOR,
+            {DECISION: balance},
+            monitor_reward="detection",
+            monitor_features=MonitorFeatures(horizon=10),
+        )
+    with pytest.raises(ValueError, match="monitor_features=.* only when the monitor learns"):
+        ns_pz.single_agent(
+            "ns_pz/CartPole-v0",
+            NATURE,
+            {DECISION: balance},
+            monitor_features=MonitorFeatures(horizon=10, evidence=False),
+        )

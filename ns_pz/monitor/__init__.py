@@ -2,6 +2,7 @@
 
 from ns_pz.monitor.cusum import TabularCusumMonitor
 from ns_pz.monitor.drift import PredictionErrorMonitor
+from ns_pz.monitor.features import MonitorFeatures
 from ns_pz.monitor.learned import PolicyMonitor
 from ns_pz.monitor.monitors import Monitor, OracleMonitor
 from ns_pz.monitor.noisy import NoisyOracleMonitor
@@ -20,6 +21,7 @@ __all__ = [
     "DetectionSummary",
     "EpisodeDetection",
     "Monitor",
+    "MonitorFeatures",
     "NoisyOracleMonitor",
     "NotificationLevel",
     "OracleMonitor",

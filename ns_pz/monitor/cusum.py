@@ -1,8 +1,11 @@
 """CUSUM change detection on tabular families: log-likelihood ratios against θ_0's kernel.
 
-Every observed transition ``(s, a, s')`` has a probability under any θ, read off the family's
+Every observed transition ``(s, a, s', r)`` has a probability under any θ, read off the family's
 explicit outcome table (:class:`~ns_pz.planning.TabularOutcomes`): the sum of the probabilities
-of the outcomes of ``(s, a)`` that lead to ``s'``. The detector compares a reference with every
+of the outcomes of ``(s, a)`` that lead to ``s'`` with reward ``r`` (the reward tells apart
+outcomes that reach one state: on CliffWalking a bump into the wall next to the start and a fall
+into the cliff both end on the start, with rewards -1 and -100; if no outcome of the θ_0 table
+has the observed reward, ``s'`` alone is matched). The detector compares a reference with every
 point θ_g of a grid over each parameter's domain (one parameter varied, the others at θ_0): one
 CUSUM per grid point::
 
@@ -13,14 +16,38 @@ likelihood ratio over the grid (the unknown post-change θ is the grid point tha
 data best since its CUSUM last restarted), Lorden's multi-CUSUM.
 
 The reference is θ_0's kernel until the first alarm. An alarm opens a segment for the parameter
-whose CUSUM crossed: a posterior over that parameter's grid (uniform prior, the likelihood of
-the transitions since the crossing CUSUM last stood at 0, the change-time estimate, then
-updated by every transition), and the reference becomes the posterior predictive
-``Σ_g w_g P_g``: the detector learns the new θ as data come instead of freezing a first guess.
-Over a window starting at ``j``, a Bayesian mixture is beaten by a grid point ``g`` by at most
-``log(1 / w_g(j))``, so while θ stays put the CUSUMs cross only on runs of unlikely data (the
-same false alarms as before any change), and a later change, towards values the posterior had
-ruled out, raises a new alarm, which opens a new segment.
+whose CUSUM crossed, with two posteriors over that parameter's grid, which share one likelihood
+(every transition since the last alarm, then every later one) and differ by their prior:
+
+* The **tested** posterior, under a uniform prior, gives the reference: its predictive
+  ``Σ_g w_g P_g``, so the detector learns the new θ as data come instead of freezing a first
+  guess. Over a window starting at ``j``, a Bayesian mixture is beaten by a grid point ``g`` by
+  at most ``log(1 / w_g(j))``, which a uniform prior keeps at most ``log G`` at the alarm: while
+  θ stays put the CUSUMs cross only on runs of unlikely data (the same false alarms as before
+  any change), and a later change, towards values the posterior had ruled out, raises a new
+  alarm, which opens a new segment.
+* The **believed** posterior, under a prior concentrated near the value believed before the
+  alarm, gives what the detector reports and the planner at ``detailed`` plans with.
+
+The likelihood at an alarm is that of every transition since the last alarm (or reset) with the
+change time uniform over them: the Shiryaev–Roberts sum of the likelihood ratio over change
+times, kept for every grid point as data come::
+
+    R_g(t) = (1 + R_g(t-1)) · P_g(x_t) / P_ref(x_t),   R_g = 0 at a segment start.
+
+The believed prior makes the change's size (:meth:`~ns_pz.params.Params.change_sizes`, in units
+of the parameter's range: 1 for a probability vector) exponential with mean ``change_scale``,
+uniform among the grid points of one size. Why: when θ_0 is deterministic (CliffWalking's shipped
+specs) the first alarm comes with the first slip. A CUSUM's last-zero window keeps that one
+transition alone, and under a uniform prior over the simplex the belief is then
+p(intended) ≈ 0.2 whatever the truth (0.19 in every run of CliffWalking 1.0 → 0.8): one slip
+cannot tell a change of 0.2 from one of 0.8. The sum over change times keeps the intended moves
+that may have come after the change, and the prior says that small changes are likelier than
+large ones. On CliffWalking 1.0 → 0.4 / 0.6 / 0.8 (a random walker, 100 runs) the median belief
+at the first alarm is 0.66 / 0.68 / 0.70 (the last-zero window under a uniform prior: 0.19 in all
+three), and 20 steps later 0.46 / 0.61 / 0.78 (0.35 / 0.49 / 0.69). Using the believed posterior
+as the reference too raised re-alarms after a large change, whose value the prior had made
+unlikely (``log(1 / w_g)`` above ``h``).
 
 A transition impossible under the reference (``P_ref = 0``) is a certain change: it raises an
 alarm at once, whatever ``h``. Its log-likelihood ratio is computed with ``P_ref`` floored at
@@ -35,24 +62,23 @@ parameters have changed, each parameter's CUSUM compares against the other's est
 the second detection).
 
 The believed θ (:meth:`TabularCusumMonitor.believed_theta`) is the θ believed when the segment
-opened, with the segment's parameter at its posterior mean. An alarm's notification flags that
-parameter, with the family's change size (:meth:`~ns_pz.params.Params.change_sizes`) between
-the θ believed before the alarm and after it: the first alarm's size is the estimated distance
-from θ_0.
+opened, with the segment's parameter at its believed posterior mean. An alarm's notification
+flags that parameter, with the family's change size (:meth:`~ns_pz.params.Params.change_sizes`)
+between the θ believed before the alarm and after it: the first alarm's size is the estimated
+distance from θ_0.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ns_pz.checks import count, positive_number
+from ns_pz.checks import positive_number
 from ns_pz.family import EnvFamily
 from ns_pz.monitor.monitors import (
     Detector,
@@ -66,6 +92,8 @@ from ns_pz.params import SIMPLEX, Params, ParamSpec
 
 FLOOR = 1e-12
 """Probability a transition impossible under the reference is given in its log-likelihood ratio."""
+MAX_GRID_BYTES = 2**28
+"""Most memory the outcome tables of one parameter's grid may take (256 MiB)."""
 
 
 @dataclass(frozen=True)
@@ -91,15 +119,14 @@ class TabularCusumMemory:
         "grids",
         "built_around",
         "statistics",
-        "restarts",
-        "recent",
+        "mixtures",
         "segment",
         "segment_age",
         "alarms",
         "trace",
     )
 
-    def __init__(self, theta0: Params, grids: tuple[_ParamGrid, ...], window: int) -> None:
+    def __init__(self, theta0: Params, grids: tuple[_ParamGrid, ...]) -> None:
         self.reference = theta0
         """θ believed when the current segment opened (θ_0 before any alarm)."""
         self.grids = grids
@@ -109,12 +136,11 @@ class TabularCusumMemory:
         sizes = [len(grid.values) for grid in grids]
         self.statistics = [np.zeros(size) for size in sizes]
         """``W_g`` of each watched parameter's grid."""
-        self.restarts = [np.zeros(size, np.int64) for size in sizes]
-        """Transition index after which each ``W_g`` last stood at 0."""
-        self.recent: deque[tuple[int, int, int, int]] = deque(maxlen=window)
-        """The last transitions as (index, state, action, next state)."""
-        self.segment: tuple[int, np.ndarray] | None = None
-        """(grid index, log posterior weights over that grid) since the last alarm."""
+        self.mixtures = [np.full(size, -np.inf) for size in sizes]
+        """``log R_g`` of each grid: the likelihood ratio summed over change times since the
+        last alarm (see the module doc)."""
+        self.segment: tuple[int, np.ndarray, np.ndarray] | None = None
+        """(grid index, log likelihood, log prior) over that grid since the last alarm."""
         self.segment_age = 0
         """Transitions seen since the last alarm."""
         self.alarms: list[int] = []
@@ -130,18 +156,31 @@ class TabularCusumMonitor(Detector):
         threshold: The alarm threshold ``h`` on ``max_g W_g`` (nats). Larger: fewer false alarms,
             longer delays. On FrozenLake 4x4 (slip 0.7 → 0.4, uniform random states and
             actions) ``h = 6, 8, 10, 12`` gave about 13, 2.3, 0.4, 0 false alarms per 1,000
-            steps and mean delays of 22, 44, 44, 55 steps (30 runs each).
+            steps and mean delays of 22, 44, 44, 55 steps (30 runs each). One CUSUM alone
+            would guarantee ARL₀ ≥ ``e^h`` steps to a false alarm in an unchanging world; the
+            maximum over a bank of ``G`` CUSUMs (231 grid points over 3 outcomes, 1,771 over 4)
+            alarms sooner. Measured, FrozenLake 4x4 at slip (0.7, 0.15, 0.15), uniform random
+            states and actions, 20 runs each: ``h = 4, 6, 8, 10`` gave ARL₀ ≈ 45, 170, 1,010,
+            6,361 steps (``e^h`` = 55, 403, 2,981, 22,026): so for a target ARL₀ of a few
+            hundred steps or more take ``h ≈ ln(ARL₀) + 1.3`` there; ``h = ln(G · ARL₀)`` (a
+            union bound over the bank) is safe but conservative. A deterministic θ_0 raises no
+            false alarm before a change.
         grid_step: Spacing of the grid over a probability vector's simplex (every vector whose
             entries are multiples of ``grid_step``; must divide 1). ``0.05`` gives 231 points
             for 3 outcomes and 1,771 for 4.
         scalar_points: Number of evenly spaced grid values over a scalar parameter's bounds
             (which must be finite).
-        window: Most recent transitions kept to start a segment's posterior at an alarm.
+        change_scale: Mean size of a change under the prior of the posterior an alarm opens,
+            as a fraction of the parameter's range (1 for a probability vector, ``high - low``
+            for a scalar); see the module doc. Smaller: a first alarm believes in a smaller
+            change.
         params: Names of the parameters to watch; default every parameter.
 
     Raises:
-        ValueError: A non-positive or non-finite threshold, a
-            ``grid_step`` that does not divide 1, fewer than 2 ``scalar_points``.
+        ValueError: A non-positive or non-finite threshold or ``change_scale``, a
+            ``grid_step`` that does not divide 1, fewer than 2 ``scalar_points``; at
+            :meth:`bind`, a grid whose outcome tables would take more than
+            :data:`MAX_GRID_BYTES`.
     """
 
     def __init__(
@@ -149,10 +188,10 @@ class TabularCusumMonitor(Detector):
         threshold: float = 10.0,
         grid_step: float = 0.05,
         scalar_points: int = 41,
-        window: int = 1000,
+        *,
+        change_scale: float = 0.2,
         params: Sequence[str] | None = None,
     ) -> None:
-        window = count("window", window)
         if not isinstance(grid_step, (int, float)) or not 0.0 < grid_step <= 1.0:
             raise ValueError(f"grid_step={grid_step!r} must be in (0, 1] and divide 1")
         if abs(round(1.0 / grid_step) * grid_step - 1.0) > 1e-9:
@@ -164,12 +203,15 @@ class TabularCusumMonitor(Detector):
         self.threshold = positive_number("threshold", threshold)
         self.grid_step = float(grid_step)
         self.scalar_points = scalar_points
-        self.window = window
+        self.change_scale = positive_number("change_scale", change_scale)
         self.watched = watched_names(params)
         self._grids: tuple[_ParamGrid, ...] = ()
         self._names: tuple[str, ...] = ()
         self._positions: tuple[int, ...] = ()
         self._half_steps: tuple[float, ...] = ()
+        self._spacings: tuple[float, ...] = ()
+        self._spans: tuple[float, ...] = ()
+        self._rewards: np.ndarray | None = None
         self._grid_values: tuple[tuple[Any, ...], ...] = ()
         self._value_arrays: tuple[np.ndarray, ...] = ()
         self._structure: np.ndarray | None = None
@@ -190,6 +232,8 @@ class TabularCusumMonitor(Detector):
         names = family.params_cls.names() if self.watched is None else self.watched
         family.params_cls.check_names(names)
         reference = _outcome_table(family, theta0)
+        for name in names:
+            _check_grid_size(family.params_cls.spec(name), self.grid_step, reference.probs.size)
         self._family = family
         self._theta0 = theta0
         self._grid_values = tuple(
@@ -199,13 +243,17 @@ class TabularCusumMonitor(Detector):
         self._names = tuple(names)
         all_names = family.params_cls.names()
         self._positions = tuple(all_names.index(name) for name in names)
-        self._half_steps = tuple(
-            0.5 * (self.grid_step if family.params_cls.spec(name).kind == SIMPLEX else _spacing(v))
-            for name, v in zip(names, self._grid_values, strict=True)
+        specs = [family.params_cls.spec(name) for name in names]
+        self._spacings = tuple(
+            self.grid_step if spec.kind == SIMPLEX else _spacing(values)
+            for spec, values in zip(specs, self._grid_values, strict=True)
         )
+        self._half_steps = tuple(0.5 * spacing for spacing in self._spacings)
+        self._spans = tuple(1.0 if spec.kind == SIMPLEX else spec.high - spec.low for spec in specs)
         self._value_arrays = tuple(np.asarray(v, np.float64) for v in self._grid_values)
         self._grids = self._grids_around(theta0)
         self._structure = reference.next_states
+        self._rewards = reference.rewards.astype(np.float32)  # as the observation shows them
         self._theta0_probs = reference.probs
 
     def _grids_around(self, theta: Params, skip: int | None = None) -> tuple[_ParamGrid, ...]:
@@ -230,19 +278,19 @@ class TabularCusumMonitor(Detector):
 
     def initial_memory(self) -> TabularCusumMemory:
         """θ_0 as the reference, every CUSUM at 0."""
-        return TabularCusumMemory(self._bound_theta0(), self._grids, self.window)
+        return TabularCusumMemory(self._bound_theta0(), self._grids)
 
     def copy_memory(self, memory: TabularCusumMemory) -> TabularCusumMemory:
         """The belief alone, for a planning copy: the reference, grids and segment posterior.
 
-        Without the episode's timeline (recent transitions, restarts, alarms, trace), which a
-        deep copy would carry at a cost growing with the episode.
+        Without the episode's timeline (alarms, trace), which a deep copy would carry at a cost
+        growing with the episode.
         """
-        fresh = TabularCusumMemory(memory.reference, memory.grids, self.window)
+        fresh = TabularCusumMemory(memory.reference, memory.grids)
         fresh.built_around = memory.built_around
         if memory.segment is not None:
-            index, log_weights = memory.segment
-            fresh.segment = (index, log_weights.copy())
+            index, log_likelihood, log_prior = memory.segment
+            fresh.segment = (index, log_likelihood.copy(), log_prior)
             fresh.segment_age = memory.segment_age
         return fresh
 
@@ -250,7 +298,8 @@ class TabularCusumMonitor(Detector):
         """The θ believed at the last alarm, its parameter at its posterior mean (θ_0 before)."""
         if memory.segment is None:
             return memory.reference
-        return self._posterior_mean(memory, *memory.segment)
+        index, log_likelihood, log_prior = memory.segment
+        return self._posterior_mean(memory, index, log_likelihood + log_prior)
 
     def notify(
         self,
@@ -266,25 +315,23 @@ class TabularCusumMonitor(Detector):
         assert observation is not None and self._structure is not None  # has_transition
         state = int(observation["last_state"])
         action = int(observation["last_action"])
-        reached_state = int(observation["state"])
+        hits = self._hits(state, action, int(observation["state"]), observation["last_reward"][0])
         transition = int(observation["relative_time"][0]) - 1
-        memory.recent.append((transition, state, action, reached_state))
         assert self._theta0_probs is not None
-        likelihoods = [self._likelihoods(g, state, action, reached_state) for g in memory.grids]
-        reached = self._structure[state, action] == reached_state
+        likelihoods = [grid.probs[state, action][:, hits].sum(axis=1) for grid in memory.grids]
         if memory.segment is None:
-            p_ref = float(self._theta0_probs[state, action][reached].sum())
+            p_ref = float(self._theta0_probs[state, action][hits].sum())
         else:
-            index, log_weights = memory.segment
-            weights = np.exp(log_weights - log_weights.max())
+            index, log_likelihood, log_prior = memory.segment
+            weights = np.exp(log_likelihood - log_likelihood.max())  # the uniform prior's
             p_ref = float(weights @ likelihoods[index] / weights.sum())
             with np.errstate(divide="ignore"):
-                log_weights += np.log(likelihoods[index])
-            if not np.isfinite(log_weights.max()):  # nothing on the grid explains the data
-                log_weights[:] = 0.0
+                log_likelihood += np.log(likelihoods[index])
+            if not np.isfinite(log_likelihood.max()):  # nothing on the grid explains the data
+                log_likelihood[:] = 0.0
             memory.segment_age = age = memory.segment_age + 1
             if len(memory.grids) > 1 and age & (age - 1) == 0:  # 1, 2, 4, 8, ... in
-                self._follow_segment(memory, index, log_weights)
+                self._follow_segment(memory, index, log_likelihood + log_prior)
         impossible = p_ref <= 0.0
         log_ref = math.log(max(p_ref, FLOOR))
         best, best_index = -1.0, -1
@@ -293,7 +340,7 @@ class TabularCusumMonitor(Detector):
                 ratio = np.log(p_grid) - log_ref
             stat = np.maximum(memory.statistics[index] + ratio, 0.0)
             memory.statistics[index] = stat
-            memory.restarts[index][stat == 0.0] = transition
+            memory.mixtures[index] = np.logaddexp(memory.mixtures[index], 0.0) + ratio
             top = float(stat.max())
             if top > best:
                 best, best_index = top, index
@@ -302,35 +349,58 @@ class TabularCusumMonitor(Detector):
             return quiet
         return self._alarm(memory, best_index, transition)
 
+    def _hits(self, state: int, action: int, reached: int, reward: Any) -> np.ndarray:
+        """Which outcomes of ``(state, action)`` give ``(reached, reward)`` (``[K]`` bools).
+
+        Matched on the state alone if no outcome to ``reached`` has that reward.
+        """
+        assert self._structure is not None and self._rewards is not None
+        to_state = self._structure[state, action] == reached
+        exact = to_state & (self._rewards[state, action] == np.float32(reward))
+        return exact if exact.any() else to_state
+
     def _alarm(
         self, memory: TabularCusumMemory, index: int, transition: int
     ) -> tuple[Flags, Sizes]:
         """Open a segment for grid ``index``'s parameter; restart the CUSUMs; notify."""
         old = self.believed_theta(memory)
-        stat = memory.statistics[index]
-        start = int(memory.restarts[index][int(np.argmax(stat))])
         grid = memory.grids[index]
-        log_weights = np.zeros(len(grid.values))
-        with np.errstate(divide="ignore"):
-            for when, state, action, reached in memory.recent:
-                if when > start:
-                    log_weights += np.log(self._likelihoods(grid, state, action, reached))
-        if not np.isfinite(log_weights.max()):
-            log_weights = stat.copy()
-        memory.restarts = [np.full_like(r, transition) for r in memory.restarts]
-        memory.segment = (index, log_weights)
+        log_likelihood = memory.mixtures[index]
+        if not np.isfinite(log_likelihood.max()):  # nothing on the grid explains the data
+            log_likelihood = np.zeros_like(log_likelihood)
+        log_prior = self._log_prior(index, getattr(old, grid.name))
+        memory.segment = (index, log_likelihood, log_prior)
         memory.segment_age = 0
         memory.reference = old
-        memory.reference = new = self._posterior_mean(memory, index, log_weights)
+        memory.reference = new = self._posterior_mean(memory, index, log_likelihood + log_prior)
         if len(memory.grids) > 1:  # one parameter's grid is the same around any θ
             memory.grids = self._grids_around(new)
             memory.built_around = new
         memory.statistics = [np.zeros_like(s) for s in memory.statistics]
+        memory.mixtures = [np.full_like(m, -np.inf) for m in memory.mixtures]
         memory.alarms.append(transition)
         name = grid.name
         flags = tuple(int(n == name) for n in old.names())
         sizes = new.change_sizes(old)
         return flags, tuple(float(s) if f else 0.0 for s, f in zip(sizes, flags, strict=True))
+
+    def _log_prior(self, index: int, believed: Any) -> np.ndarray:
+        """Log prior over grid ``index`` for a change from ``believed`` (see the module doc).
+
+        The size of a change to each grid value, in units of the parameter's range, is
+        exponential with mean ``change_scale``; the grid values of one size (rounded to the
+        grid's spacing) share its weight equally.
+        """
+        values = self._value_arrays[index]
+        here = np.asarray(believed, np.float64)
+        if values.ndim == 2:  # a probability vector: total variation
+            distance = 0.5 * np.abs(values - here).sum(axis=1)
+        else:
+            distance = np.abs(values - here)
+        span, spacing = self._spans[index], self._spacings[index]
+        shells = np.rint(distance / spacing).astype(np.int64) if spacing > 0 else distance * 0
+        _, shell, members = np.unique(shells, return_inverse=True, return_counts=True)
+        return -distance / (span * self.change_scale) - np.log(members[shell])
 
     def _follow_segment(
         self, memory: TabularCusumMemory, index: int, log_weights: np.ndarray
@@ -346,12 +416,6 @@ class TabularCusumMonitor(Detector):
             for i, grid in enumerate(self._grids_around(believed, skip=index))
         )
         memory.built_around = believed
-
-    def _likelihoods(self, grid: _ParamGrid, state: int, action: int, reached: int) -> np.ndarray:
-        """Probability of ``state --action--> reached`` under each grid point."""
-        assert self._structure is not None
-        hits = self._structure[state, action] == reached
-        return grid.probs[state, action][:, hits].sum(axis=1)
 
     def _posterior_mean(
         self, memory: TabularCusumMemory, index: int, log_weights: np.ndarray
@@ -373,7 +437,8 @@ class TabularCusumMonitor(Detector):
     def __repr__(self) -> str:
         return (
             f"TabularCusumMonitor(threshold={self.threshold}, grid_step={self.grid_step}, "
-            f"scalar_points={self.scalar_points}, params={self.watched!r})"
+            f"scalar_points={self.scalar_points}, change_scale={self.change_scale}, "
+            f"params={self.watched!r})"
         )
 
 
@@ -401,6 +466,25 @@ def _grid_values(spec: ParamSpec, step: float, points: int) -> tuple[Any, ...]:
         )
     values = np.linspace(spec.low, spec.high, points)
     return tuple(float(v) for v in values if spec.contains(float(v)))
+
+
+def _check_grid_size(spec: ParamSpec, step: float, table_size: int) -> None:
+    """Refuse a simplex grid whose outcome tables would take more than :data:`MAX_GRID_BYTES`.
+
+    Raises:
+        ValueError: ``step`` too fine for ``spec``'s vector; the message names the number of
+            grid points and the memory they would take.
+    """
+    if spec.kind != SIMPLEX:
+        return
+    points = math.comb(round(1.0 / step) + spec.size - 1, spec.size - 1)
+    needed = points * table_size * 8
+    if needed > MAX_GRID_BYTES:
+        raise ValueError(
+            f"grid_step={step!r} gives {points:,} grid points over {spec.name!r} "
+            f"({spec.size} outcomes), whose outcome tables would take {needed / 2**30:,.1f} GiB "
+            f"(at most {MAX_GRID_BYTES / 2**30:.2f} GiB); use a coarser grid_step"
+        )
 
 
 def _spacing(values: tuple[Any, ...]) -> float:

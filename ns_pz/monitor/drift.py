@@ -10,9 +10,10 @@ well above rounding and well below what a real change of θ does in one step::
     x_t = max_i |ŝ'_i - s'_i| / (tolerance * (1 + |s'_i|)),
 
 and a one-sided CUSUM with reference value 1 accumulates it: ``S_t = max(0, S_{t-1} + x_t - 1)``,
-with an alarm when ``S_t > threshold``. An error below the tolerance only drains the sum, so a
-stationary deterministic env raises no alarm; a gross change crosses at its first informative
-transition; a small persistent one accumulates over several.
+with an alarm when ``S_t > threshold``. A NaN error (a NaN observation, or a prediction that
+overflows) counts as infinite: an alarm at once. An error below the tolerance only drains the
+sum, so a stationary deterministic env raises no alarm; a gross change crosses at its first
+informative transition; a small persistent one accumulates over several.
 
 Why not river's Page–Hinkley or ADWIN: both learn the pre-change level from the stream and need
 a warm-up (``min_instances``, a window on each side of the cut); in the shipped settings the
@@ -244,6 +245,8 @@ class PredictionErrorMonitor(Detector):
         observed = np.asarray(observation["state"], np.float64)
         memory.recent.append((state, action, observed))
         score = float(self.errors(memory.reference, state, action, observed, rng).max())
+        if score != score:  # NaN: an observation (or a prediction) no θ explains is a change
+            score = np.inf
         memory.statistic = max(0.0, memory.statistic + score - 1.0)
         memory.trace.append(memory.statistic)
         if memory.statistic == 0.0:
@@ -350,7 +353,7 @@ class PredictionErrorMonitor(Detector):
         """
         kernel = self._kernel
         if kernel is None:
-            return np.array(
+            losses = np.array(
                 [
                     sum(
                         float(np.sum(self.errors(reference.replace(**{n: v}), s, a, o, rng) ** 2))
@@ -359,6 +362,7 @@ class PredictionErrorMonitor(Detector):
                     for n, v in rows
                 ]
             )
+            return np.nan_to_num(losses, nan=np.inf)
         count, steps = len(rows), len(data)
         states = np.array([kernel.pack(s) for s, _, _ in data], kernel.state_dtype)
         actions = np.array([a for _, a, _ in data])
@@ -374,7 +378,7 @@ class PredictionErrorMonitor(Detector):
         )
         guess = np.asarray(kernel.observe(predicted), np.float64).reshape(count, steps, -1)
         errors = np.abs(guess - observed) / (1.0 + np.abs(observed)) / self.tolerance
-        return np.sum(errors * errors, axis=(1, 2))
+        return np.nan_to_num(np.sum(errors * errors, axis=(1, 2)), nan=np.inf)
 
     def _candidates(self, base: float) -> list[float]:
         """Grid values around ``base``, increasing (around 1 when ``base`` is 0)."""

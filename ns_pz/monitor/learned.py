@@ -9,6 +9,7 @@ import numpy as np
 
 from ns_pz.checks import flag
 from ns_pz.family import EnvFamily
+from ns_pz.monitor.features import MonitorFeatures
 from ns_pz.monitor.monitors import Flags, Monitor, Sizes, as_flags
 from ns_pz.observations import monitor_flags_space, monitor_observation_space
 from ns_pz.params import Params
@@ -30,15 +31,23 @@ class PolicyMonitor(Monitor):
         policy: A callable ``obs -> flags`` or an SB3-style model.
         deterministic: Passed to ``predict``; sampling (``False``) draws from the monitor's
             generator, so one seed reproduces it.
+        features: The :class:`~ns_pz.monitor.MonitorFeatures` the policy was trained with (its
+            observation then holds the clock and the evidence since its last alarm).
 
     Raises:
-        TypeError: ``policy`` cannot act, or ``deterministic`` is not a bool.
+        TypeError: ``policy`` cannot act, ``deterministic`` is not a bool, ``features`` is not
+            ``None`` or a :class:`~ns_pz.monitor.MonitorFeatures`.
     """
 
-    def __init__(self, policy: Any, *, deterministic: bool = True) -> None:
+    def __init__(
+        self, policy: Any, *, deterministic: bool = True, features: MonitorFeatures | None = None
+    ) -> None:
         check_policy(policy, "monitor", "PolicyMonitor(policy)")
+        if features is not None and not isinstance(features, MonitorFeatures):
+            raise TypeError(f"features={features!r} must be None or a MonitorFeatures")
         self.policy = policy
         self.deterministic = flag("deterministic", deterministic)
+        self.features = features
         self._count = 0
         self._family: EnvFamily | None = None
 
@@ -54,16 +63,18 @@ class PolicyMonitor(Monitor):
             ValueError: The policy's own spaces (an SB3 model's) are not the monitor seat's for
                 ``family``, or it is bound to another family already.
         """
-        if self._family is not None:
-            if repr(family) == repr(self._family):
-                return
+        if self._family is not None and repr(family) != repr(self._family):
             raise ValueError(
                 f"PolicyMonitor is bound to {self._family!r}; give {family!r} its own "
                 "PolicyMonitor instance"
             )
+        if self.features is not None:
+            self.features.bind(family, theta0)
+        if self._family is not None:
+            return
         check_policy_spaces(
             self.policy,
-            monitor_observation_space(family),
+            monitor_observation_space(family, self.features),
             monitor_flags_space(family.params_cls),
             "PolicyMonitor's policy",
             " (was it trained on another environment?)",
@@ -83,13 +94,23 @@ class PolicyMonitor(Monitor):
         Raises:
             ValueError: The policy's answer is not one 0/1 flag per parameter.
         """
-        answer = call_policy(self.policy, observation, deterministic=self.deterministic, rng=rng)
+        seen: Any = observation
+        if self.features is not None:
+            self.features.update(memory, observation)  # type: ignore[arg-type]
+            seen = self.features.observation(observation, memory)  # type: ignore[arg-type]
+        answer = call_policy(self.policy, seen, deterministic=self.deterministic, rng=rng)
         flags = as_flags(answer, self._count)
         if flags is None:
             raise ValueError(
                 f"the monitor policy answered {answer!r}; it must give {self._count} flags of 0/1"
             )
+        if self.features is not None:
+            self.features.alarmed(memory, flags)
         return flags, (0.0,) * self._count
+
+    def initial_memory(self) -> Any:
+        """The features' running statistics (``None`` without features)."""
+        return None if self.features is None else self.features.initial_memory()
 
     def __repr__(self) -> str:
         return f"PolicyMonitor({self.policy!r})"
