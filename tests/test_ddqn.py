@@ -19,10 +19,10 @@ from ns_pz.agents.learning.ddqn import (  # noqa: E402
     new_learner,
     td_loss,
     train_ddqn,
-    training_seeds,
 )
 from ns_pz.agents.learning.ddqn_wn import network_from  # noqa: E402
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer  # noqa: E402
+from ns_pz.agents.learning.seeding import training_seeds  # noqa: E402
 from ns_pz.agents.learning.trained import training_env  # noqa: E402
 
 FROZEN_LAKE = {"slip": [0.7, 0.15, 0.15]}

@@ -188,8 +188,11 @@ class AlphaZeroArgs:
     value_target: str = "return"
     """``"return"``: the discounted return from the move on (AlphaZero's z); ``"root_q"``: the
     visit-weighted root Q of the move's search (NS-Gym)."""
-    checkpoint_window: int = 10
-    """Episodes of the moving-average return that picks the kept network (paper: 100)."""
+    evaluate_every: int = 10
+    """Episodes between evaluations of the network (also after the last); the best evaluated
+    network is kept (the paper: the best 100-episode moving average of self-play returns)."""
+    evaluation_episodes: int = 4
+    """Held-out episodes per evaluation, played as the agent acts (PUCT, most visited action)."""
     max_episode_steps: int = 100
     """Truncation of self-play episodes."""
     seed: int = 0
@@ -212,7 +215,8 @@ class AlphaZeroArgs:
             "epochs",
             "window",
             "max_episode_steps",
-            "checkpoint_window",
+            "evaluate_every",
+            "evaluation_episodes",
         ):
             _integer(name, getattr(self, name), 1)
         _integer("depth", self.depth, 0)

@@ -27,6 +27,7 @@ from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import feature_size, features
 from ns_pz.agents.learning.networks import export, mlp, seeded_torch
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer
+from ns_pz.agents.learning.seeding import training_seeds
 
 from ns_pz.views import NSGymEnv
 
@@ -124,21 +125,6 @@ def train_ddqn(env: NSGymEnv, args: DDQNArgs, seed: int) -> tuple[dict[str, np.n
         "args": asdict(args),
     }
     return export(q_network, "q"), info
-
-
-def training_seeds(seed: int) -> tuple[np.random.Generator, int, int]:
-    """Independent streams of one training seed: ``(generator, env seed, torch seed)``.
-
-    Spawned from ``numpy.random.SeedSequence(seed)``, so the learner's own draws, the
-    environment's episodes and the network initialisation never share a stream (seeding the
-    generator and the environment with the same integer gives them the same stream).
-    """
-    own, env, init = np.random.SeedSequence(seed).spawn(3)
-    return (
-        np.random.default_rng(own),
-        int(env.generate_state(1)[0]),
-        int(init.generate_state(1)[0]),
-    )
 
 
 def new_learner(
