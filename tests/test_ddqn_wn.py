@@ -105,6 +105,28 @@ def test_bad_budget_is_refused(field, value, match):
         agent_entry("ddqn_wn").artefacts(_env(), {field: value})
 
 
+def test_validate_must_be_a_bool():
+    """The string "false" would have kept validation on."""
+    with pytest.raises(TypeError, match="validate='false' must be a bool"):
+        agent_entry("ddqn_wn").artefacts(_env(), {"validate": "false"})
+
+
+def test_without_validation_the_last_fine_tuned_network_is_kept():
+    """validate=False (the paper's fine-tuning): no scoring, the network after the updates."""
+    env = _env()
+    env.reset(seed=0)
+    env.step(1)
+    observation, *_ = env.step(1)
+    agent = _agent(env, model_steps=40, gradient_steps=5, checks=1, validate=False)
+    before = [p.detach().clone() for p in agent.online.parameters()]
+    agent.act(observation, env.planning_model())
+    assert agent.last_fine_tuning["scoring_steps"] == 0
+    assert agent.last_fine_tuning["accepted_round"] == 1
+    assert any(
+        not torch.equal(b, a) for b, a in zip(before, agent.online.parameters(), strict=True)
+    )
+
+
 def test_acting_leaves_torchs_thread_count_as_it_was():
     """Fine-tuning runs on one thread, and gives the caller's thread count back."""
     import torch

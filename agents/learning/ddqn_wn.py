@@ -107,6 +107,8 @@ class FineTunedDDQNAgent(Agent):
             None: the step counts. Set, it replaces them.
         checks: Rounds the budget is split into; the candidate after each is scored.
         evaluation_episodes: Scoring episodes per candidate (at least 2).
+        validate: False: no scoring, the last network is kept (the paper's and NS-Gym's
+            fine-tuning; with ``checks=1`` exactly this module's behaviour before validation).
 
     Raises:
         ValueError, TypeError: A budget below 0, ε outside [0, 1], a time budget that is not a
@@ -125,10 +127,12 @@ class FineTunedDDQNAgent(Agent):
         time_budget: float | None = None,
         checks: int = 5,
         evaluation_episodes: int = 16,
+        validate: bool = True,
     ) -> None:
         check_fine_tuning(
-            model_steps, gradient_steps, epsilon, time_budget, checks, evaluation_episodes
+            model_steps, gradient_steps, epsilon, time_budget, checks, evaluation_episodes, validate
         )
+        self.validate = validate
         self.weights = weights
         self.space = observation_space
         self.args = args
@@ -175,7 +179,9 @@ class FineTunedDDQNAgent(Agent):
         start = model.get_state()
         scoring_seed = int(self.rng.integers(2**63))
         kept = copy.deepcopy(self.online.state_dict())
-        kept_returns, scored = self._greedy_returns(model, start, scoring_seed)
+        kept_returns, scored = np.zeros(2), 0
+        if self.validate:
+            kept_returns, scored = self._greedy_returns(model, start, scoring_seed)
         self.target.load_state_dict(kept)
         optimizer = torch.optim.Adam(
             self.online.parameters(),
@@ -199,6 +205,9 @@ class FineTunedDDQNAgent(Agent):
                     made += 1
                     if self.buffer.size >= self.args.batch_size:
                         updates += self._update(optimizer)
+            if not self.validate:
+                kept, accepted = copy.deepcopy(self.online.state_dict()), k + 1
+                continue
             returns, steps = self._greedy_returns(model, start, scoring_seed)
             scored += steps
             if improves(returns, kept_returns):
@@ -211,7 +220,7 @@ class FineTunedDDQNAgent(Agent):
             "gradient_steps": updates,
             "accepted_round": accepted,
             "scoring_steps": scored,
-            "kept_return": float(np.mean(kept_returns)),
+            "kept_return": float(np.mean(kept_returns)) if self.validate else None,
         }
 
     def _transitions(self, model: Any, start: Any) -> Iterator[tuple[Any, ...]]:
@@ -275,7 +284,7 @@ class FineTunedDDQNAgent(Agent):
         )
         return (
             f"FineTunedDDQNAgent({budget}, epsilon={self.epsilon}, checks={self.checks}, "
-            f"evaluation_episodes={self.evaluation_episodes})"
+            f"evaluation_episodes={self.evaluation_episodes}, validate={self.validate})"
         )
 
 

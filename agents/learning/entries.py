@@ -61,6 +61,7 @@ _DDQN_WN_ACTING = (
     "time_budget",
     "checks",
     "evaluation_episodes",
+    "validate",
 )
 
 

@@ -12,7 +12,7 @@ from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import NumpyMLP, features
 from ns_pz.agents.learning.trained import ddqn_needed, obtain, torch_module
 
-from ns_pz.checks import count, positive_number
+from ns_pz.checks import count, flag, positive_number
 from ns_pz.views import NSGymEnv
 
 
@@ -76,6 +76,7 @@ def check_fine_tuning(
     time_budget: Any = None,
     checks: Any = 1,
     evaluation_episodes: Any = 2,
+    validate: Any = True,
 ) -> None:
     """Validate DDQN-WN's fine-tuning budget.
 
@@ -83,8 +84,9 @@ def check_fine_tuning(
         ValueError: A count that is not an int >= 0, ``checks`` below 1, ``evaluation_episodes``
             below 2, ``epsilon`` outside [0, 1], or a ``time_budget`` (when not None) that is
             not a finite number > 0.
-        TypeError: ``epsilon`` is not a real number.
+        TypeError: ``epsilon`` is not a real number, or ``validate`` not a bool.
     """
+    flag("validate", validate)
     count("model_steps", model_steps, 0)
     count("gradient_steps", gradient_steps, 0)
     count("checks", checks, 1)
@@ -106,6 +108,7 @@ def build_ddqn_wn(
     time_budget: float | None = None,
     checks: int = 5,
     evaluation_episodes: int = 16,
+    validate: bool = True,
     ddqn: Mapping[str, Any] | None = None,
 ) -> Agent:
     """DDQN-WN for ``env``: the ``ddqn`` agent's network, fine-tuned on notified changes.
@@ -123,6 +126,7 @@ def build_ddqn_wn(
             counts (the paper: 0.4); None: the step counts.
         checks: Rounds of the budget, each ending with a scored candidate.
         evaluation_episodes: Greedy episodes in the handed model that score a candidate.
+        validate: False: keep the last fine-tuned network unscored (the paper's fine-tuning).
         ddqn: :class:`DDQNArgs` of the network (as the ``ddqn`` agent's, to share it); its
             learning rate, γ, τ, batch size and weight decay also drive the fine-tuning.
     """
@@ -139,4 +143,5 @@ def build_ddqn_wn(
         time_budget=time_budget,
         checks=checks,
         evaluation_episodes=evaluation_episodes,
+        validate=validate,
     )
