@@ -1,6 +1,6 @@
 """AlphaZero self-play training on the stationary base environment θ_0 (imports torch).
 
-ALGORITHMS.md §2.1, with NS-Gym's defects fixed (§2.4): the policy loss is the cross-entropy
+The paper's AlphaZero, with NS-Gym's defects fixed: the policy loss is the cross-entropy
 between the visit distribution and the network's *logits* (NS-Gym applied ``cross_entropy`` to
 softmax outputs, a double softmax), and the network trains on a window of recent self-play
 samples rather than only the last episode. The loop reads top to bottom:

@@ -1,8 +1,8 @@
 """Hyper-parameters of the learners (numpy-free of torch: specs and the catalog check them).
 
 Each learner's settings are one frozen ``Args`` dataclass with a docstring per field, as in
-cleanrl. Fields left ``None`` take the paper's value for the environment family
-(ALGORITHMS.md §2.3, §3.3) when the learner is bound to an environment (:meth:`for_family`).
+cleanrl. Fields left ``None`` take the paper's value for the environment family (the NS-Gym
+paper's appendix tables) when the learner is bound to an environment (:meth:`for_family`).
 Defaults are the quick size (seconds of training on two cores); the shipped specs' ``full``
 size sets the paper-sized budgets.
 """
@@ -28,7 +28,7 @@ DDQN_HIDDEN = {
     "CartPoleFamily": (64,),
 }
 
-#: AlphaZero's trunk widths and search constants per family (ALGORITHMS.md §2.3):
+#: AlphaZero's trunk widths and search constants per family (the NS-Gym paper's appendix):
 #: ``(hidden, c, gamma, dirichlet_alpha, noise)``.
 ALPHAZERO_PAPER = {
     "FrozenLakeFamily": ((64, 64, 64), 1.44, 0.999, 1.0, 0.0),
@@ -81,7 +81,7 @@ def _widths(name: str, value: Any) -> tuple[int, ...] | None:
 
 @dataclass(frozen=True)
 class DDQNArgs:
-    """Double-DQN training on θ_0 (ALGORITHMS.md §3; NS-Gym's defaults unless noted).
+    """Double-DQN training on θ_0 (NS-Gym's defaults unless noted).
 
     Raises:
         TypeError, ValueError: A field of the wrong type or out of range (named in the message).
@@ -145,7 +145,7 @@ class DDQNArgs:
 
 @dataclass(frozen=True)
 class AlphaZeroArgs:
-    """AlphaZero self-play training on θ_0 (ALGORITHMS.md §2).
+    """AlphaZero self-play training on θ_0.
 
     Raises:
         TypeError, ValueError: A field of the wrong type or out of range (named in the message).

@@ -1,6 +1,6 @@
 """Double DQN (van Hasselt et al. 2016) trained on the stationary base env θ_0 (imports torch).
 
-ALGORITHMS.md §3. The training loop reads top to bottom like cleanrl's ``dqn.py``; the one
+The training loop reads top to bottom like cleanrl's ``dqn.py``; the one
 thing that makes it *Double* DQN is :func:`double_dqn_target`: the online network chooses the
 next action, the target network evaluates it (NS-Gym's ``DDQN`` uses the vanilla
 ``max_a' Q_target`` target, and in practice no separate target network at all).

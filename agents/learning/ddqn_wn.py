@@ -1,6 +1,6 @@
 """DDQN with notification: the θ_0 Q-network, fine-tuned on each notified change (torch).
 
-ALGORITHMS.md §3.1 "DECIDE (WN)". When the observation flags a change, the agent collects
+The paper's DDQN with notification. When the observation flags a change, the agent collects
 transitions in the planning model handed over (at ``detailed`` it has the new θ), ε-greedy from
 the current state and back to the current state whenever a simulated episode ends, and makes
 Double-DQN updates on them; it then acts greedily. Fixed from NS-Gym: ε is used (NS-Gym collects

@@ -1,6 +1,6 @@
 """The torch networks the learners train, and their export to plain arrays (imports torch).
 
-Layouts follow NS-Gym's trained models (ALGORITHMS.md §2.4, §3.3): a ReLU MLP whose ``hidden``
+Layouts follow NS-Gym's trained models: a ReLU MLP whose ``hidden``
 tuple lists the widths of the hidden layers, so a DQN with ``hidden=(64,)`` has two ``Linear``
 layers (NS-Gym's "2 layers, 64 units"). Exported names match :class:`NumpyMLP`.
 """

@@ -1,4 +1,4 @@
-"""PUCT: AlphaZero's search, guided by a policy/value function (ALGORITHMS.md §2.1).
+"""PUCT: AlphaZero's search, guided by a policy/value function (Silver et al.).
 
 A search function like :func:`ns_pz.agents.search.mcts.uct` (``search(model, root_state, rng)``
 with its settings bound), returning the same :class:`SearchResult`:
