@@ -257,3 +257,128 @@ def test_normalise_q_must_be_a_bool():
     """The string "false" would have switched normalisation on."""
     with pytest.raises(TypeError, match="normalise_q='false' must be a bool"):
         AlphaZeroArgs(normalise_q="false")
+
+
+class RecordingModel(ToyModel):
+    """The toy model, recording every (state, action) a search simulates."""
+
+    def __init__(self):
+        self.calls = []
+
+    def transition(self, state, action):
+        """Record, then the toy model's outcome."""
+        self.calls.append((state, action))
+        return super().transition(state, action)
+
+
+def test_root_noise_is_mixed_into_the_root_priors_and_nowhere_else():
+    """Priors (1, 0) everywhere and c huge: selection follows the priors exactly.
+
+    The root's priors are (1 - ε)(1, 0) + ε·Dir(α), the Dirichlet being the search generator's
+    first draw, so the root tries action 1 too; every other node keeps the network's (1, 0) and
+    only ever takes action 0.
+    """
+    model = RecordingModel()
+    settings = PUCTSettings(20, 5, 1e6, 0.5, dirichlet_alpha=1.0, noise=0.5)
+    tree = puct_tree(
+        model, 0, np.random.default_rng(4), lambda s: (np.array([1.0, 0.0]), 0.0), settings
+    )
+    noise = np.random.default_rng(4).dirichlet([1.0, 1.0])
+    np.testing.assert_allclose(tree.priors, 0.5 * np.array([1.0, 0.0]) + 0.5 * noise)
+    assert tree.visits[1] > 0  # the noise reached the root's selection
+    assert {action for state, action in model.calls if state != 0} == {0}
+
+
+@pytest.mark.parametrize("backend", ["python", "compiled"])
+def test_unvisited_root_actions_start_at_the_roots_value(backend):
+    """First-play value: after one simulation the three untried actions have Q = v(root)."""
+    from ns_pz.agents.learning.puct import TabularEvaluation
+
+    if backend == "compiled":
+        pytest.importorskip("numba")
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE)
+    env.reset(seed=0)
+    model = env.planning_model()
+    evaluate = TabularEvaluation(np.full((16, 4), 0.25), np.full(16, 0.7))
+    tree = puct_tree(
+        model, 0, np.random.default_rng(0), evaluate, PUCTSettings(1, 5, 1.0, 0.9), backend
+    )
+    assert tree.visits.sum() == 1
+    np.testing.assert_allclose(tree.q[tree.visits == 0], 0.7)
+
+
+def test_a_move_is_drawn_from_the_visits_at_the_temperature():
+    """Visits (1, 3, 0, 6) at T = 0.5: policy N² / ΣN² = (1, 9, 0, 36) / 46, and moves follow it."""
+    from ns_pz.agents.learning.alphazero import sample_move
+    from ns_pz.agents.learning.puct import PUCTTree
+
+    visits = np.array([1, 3, 0, 6])
+    tree = PUCTTree(visits, np.zeros(4), 0.0, 1, 10, np.full(4, 0.25))
+    expected = np.array([1.0, 9.0, 0.0, 36.0]) / 46.0
+    rng = np.random.default_rng(5)
+    twin = np.random.default_rng(5)
+    policy, action = sample_move(tree, 0.5, rng)
+    np.testing.assert_allclose(policy, expected)
+    assert action == twin.choice(4, p=expected)
+    counts = np.bincount([sample_move(tree, 0.5, rng)[1] for _ in range(4000)], minlength=4)
+    np.testing.assert_allclose(counts / 4000, expected, atol=0.02)
+    assert counts[2] == 0
+
+
+def _moves(rewards, root_qs):
+    from ns_pz.agents.learning.alphazero import Move
+
+    return [
+        Move(np.zeros(2, np.float32), np.ones(2), np.full(2, 0.5), q, 0, r)
+        for r, q in zip(rewards, root_qs, strict=True)
+    ]
+
+
+def test_value_targets_are_the_return_from_each_move_on():
+    """Rewards (1, 0, 2), γ = 0.5: z = (1 + 0.5·(0 + 0.5·2), 0 + 0.5·2, 2) = (1.5, 1, 2)."""
+    from ns_pz.agents.learning.alphazero import value_targets
+
+    moves = _moves([1.0, 0.0, 2.0], [7.0, 8.0, 9.0])
+    np.testing.assert_allclose(value_targets(moves, "return", 0.5), [1.5, 1.0, 2.0])
+    np.testing.assert_allclose(value_targets(moves, "root_q", 0.5), [7.0, 8.0, 9.0])
+    with pytest.raises(ValueError, match="value_target='mc'"):
+        value_targets(moves, "mc", 0.5)
+
+
+def test_a_self_play_episode_records_the_searches_it_played():
+    """Each move's policy is its visits at the episode's temperature; rewards are the env's."""
+    from ns_pz.agents.learning.alphazero import self_play_episode, value_targets
+
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE, max_episode_steps=20)
+    observation, _ = env.reset(seed=1)
+    function = _random_function(env.family.observation_space, 1)
+    settings = PUCTSettings(12, 5, 1.0, 0.9)
+    moves = self_play_episode(env, observation, function, settings, 0.5, np.random.default_rng(2))
+    replay = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE, max_episode_steps=20)
+    state = replay.reset(seed=1)[0]["state"]
+    for move in moves:
+        squared = move.visits**2 / (move.visits**2).sum()
+        np.testing.assert_allclose(move.policy, squared)
+        assert move.features.argmax() == state
+        observation, reward, *_ = replay.step(move.action)
+        state = observation["state"]
+        assert move.reward == reward
+    z = value_targets(moves, "return", 0.9)
+    assert z[-1] == moves[-1].reward and z[0] == pytest.approx(
+        sum(0.9**k * m.reward for k, m in enumerate(moves))
+    )
+
+
+def test_training_keeps_the_best_evaluated_network(_tmp_cache):
+    """The kept network is the one of the best held-out evaluation, not the last."""
+    from ns_pz.agents.learning.alphazero import train_alphazero
+    from ns_pz.agents.learning.trained import training_env
+
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE)
+    args = AlphaZeroArgs(
+        episodes=6, iterations=8, evaluate_every=2, evaluation_episodes=2, max_episode_steps=30
+    ).for_family(env.family)
+    weights, info = train_alphazero(training_env(env, 30), args, 0)
+    episodes = [episode for episode, _ in info["evaluations"]]
+    assert episodes == [2, 4, 6]
+    assert info["kept_evaluation"] == max(score for _, score in info["evaluations"])

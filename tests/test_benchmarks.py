@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -100,3 +101,20 @@ def test_robust_benchmark_quick_run(tmp_path):
     for method in ("plain", "dr", "rarl", "rarl-pool"):
         assert f"| {method} | 1 |" in out
         assert (tmp_path / f"{method}_0.json").exists()
+
+
+def test_fine_tuning_benchmark_small_run(tmp_path):
+    """bench_fine_tuning.py prints a before/after line per setting (a tiny network, one seed)."""
+    pytest.importorskip("torch")
+    bench = BENCH.parent / "bench_fine_tuning.py"
+    small = "{'ddqn': {'total_steps': 600, 'learning_starts': 100}, 'model_steps': 20}"
+    out = subprocess.run(
+        [sys.executable, str(bench), "frozenlake-single", "--seeds", "1", "--agent", small],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "NS_PZ_CACHE_DIR": str(tmp_path)},
+    ).stdout
+    for label in ("unchanged", "p=0.4", "p=0.6", "p=0.8"):
+        assert f"\n{label}" in out
+    assert out.count(" before ") == 4 and "replaced" in out

@@ -1,19 +1,24 @@
 """AlphaZero self-play training on the stationary base environment θ_0 (imports torch).
 
-AlphaZero (Silver et al. 2017) as NS-Gym trains it, with two of its defects fixed: the policy loss
-is the cross-entropy between the visit distribution and the network's *logits* (NS-Gym applied
-``cross_entropy`` to softmax outputs, a double softmax), and the network trains on a window of
-recent self-play samples rather than only the last episode. The loop reads top to bottom:
+The paper's AlphaZero, with NS-Gym's defects fixed: the policy loss is the cross-entropy
+between the visit distribution and the network's *logits* (NS-Gym applied ``cross_entropy`` to
+softmax outputs, a double softmax), and the network trains on a window of recent self-play
+samples rather than only the last episode. The loop reads top to bottom:
 
-for each episode: play it with PUCT on the planning model (θ_0) under the current network,
-recording ``(features, visit distribution at temperature T, value target)`` per move and
-sampling each move from that distribution; the value target is the discounted return from that
-move to the episode's end (AlphaZero's z; ``value_target="root_q"``: NS-Gym's visit-weighted
-root Q, which learns nothing from sparse rewards until the search itself finds them); then
-``epochs`` full-batch Adam steps on the window with
-``loss = MSE(v, V_target) + CE(π_target, softmax(logits))`` (weight decay in Adam);
-``T <- max(decay * T, T_min)``. The weights kept are those after the episode with the best
-moving-average return over the last ``checkpoint_window`` episodes.
+for each episode: play it with PUCT on the planning model (θ_0) under the current network
+(:func:`self_play_episode`), recording per move the visit distribution at temperature T and
+sampling the move from it (:func:`sample_move`); the value target of a move
+(:func:`value_targets`) is the discounted return from that move to the episode's end
+(AlphaZero's z; ``value_target="root_q"``: the paper's and NS-Gym's visit-weighted root Q,
+which learns nothing from sparse rewards until the search itself finds them); then ``epochs``
+full-batch Adam steps on the window with ``loss = MSE(v, V_target) + CE(π_target,
+softmax(logits))`` (weight decay in Adam); ``T <- max(decay * T, T_min)``.
+
+The network kept is the best *evaluated* one: every ``evaluate_every`` episodes (and after the
+last) the network plays ``evaluation_episodes`` episodes on held-out seeds as the agent will
+act (PUCT with the same settings, the most visited action), and the one with the best mean
+return is kept (the paper keeps the best 100-episode moving average of the noisy self-play
+returns, which rewards the exploration of the moment rather than the network).
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from __future__ import annotations
 import collections
 import time
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -30,7 +35,15 @@ import torch.nn.functional as F
 from ns_pz.agents.learning.config import AlphaZeroArgs
 from ns_pz.agents.learning.features import feature_size, features
 from ns_pz.agents.learning.networks import PolicyValueNet, seeded_torch
-from ns_pz.agents.learning.puct import PolicyValueFunction, model_evaluation, puct_tree
+from ns_pz.agents.learning.puct import (
+    PolicyValueFunction,
+    PUCTSettings,
+    PUCTTree,
+    model_evaluation,
+    puct,
+    puct_tree,
+)
+from ns_pz.agents.learning.seeding import training_seeds
 
 from ns_pz.views import NSGymEnv
 
@@ -53,6 +66,106 @@ def alphazero_loss(
     return F.mse_loss(values, value_targets) + cross_entropy
 
 
+@dataclass(frozen=True)
+class Move:
+    """One self-play move.
+
+    Attributes:
+        features: The network input of the state moved from.
+        visits: ``[num_actions]`` root visit counts of its search.
+        policy: ``[num_actions]`` the policy target: the visits at the episode's temperature.
+        root_q: The visit-weighted root Q of the search.
+        action: The move played, drawn from ``policy``.
+        reward: The reward of the transition it made.
+    """
+
+    features: np.ndarray
+    visits: np.ndarray
+    policy: np.ndarray
+    root_q: float
+    action: int
+    reward: float
+
+
+def sample_move(
+    tree: PUCTTree, temperature: float, rng: np.random.Generator
+) -> tuple[np.ndarray, int]:
+    """The policy target ``N^(1/T)`` normalised and a move drawn from it with ``rng``."""
+    policy = tree.policy_target(temperature)
+    return policy, int(rng.choice(len(policy), p=policy))
+
+
+def self_play_episode(
+    env: NSGymEnv,
+    observation: dict[str, Any],
+    function: PolicyValueFunction,
+    settings: PUCTSettings,
+    temperature: float,
+    rng: np.random.Generator,
+) -> list[Move]:
+    """Play ``env`` from ``observation`` (just reset) to its end with PUCT guided by ``function``.
+
+    Each move searches the planning model from the current state with ``rng`` and draws the
+    move from the visit distribution at ``temperature``.
+    """
+    space = env.family.observation_space
+    moves: list[Move] = []
+    done = False
+    while not done:
+        model = env.planning_model()
+        tree = puct_tree(model, model.get_state(), rng, model_evaluation(function, model), settings)
+        policy, action = sample_move(tree, temperature, rng)
+        x = features(space, observation["state"])
+        observation, reward, terminated, truncated, _ = env.step(action)
+        moves.append(Move(x, tree.visits, policy, tree.value_target(), action, float(reward)))
+        done = terminated or truncated
+    return moves
+
+
+def value_targets(moves: list[Move], value_target: str, gamma: float) -> np.ndarray:
+    """``[len(moves)]`` value targets of one episode's moves.
+
+    ``"return"``: the discounted return from each move on, ``z_t = r_t + γ z_{t+1}`` with
+    ``r_t`` the reward of move ``t``'s own transition (0 after the last move); ``"root_q"``:
+    each move's visit-weighted root Q.
+
+    Raises:
+        ValueError: An unknown ``value_target``.
+    """
+    if value_target == "root_q":
+        return np.array([move.root_q for move in moves], dtype=np.float32)
+    if value_target != "return":
+        raise ValueError(f"value_target={value_target!r} is not 'return' or 'root_q'")
+    targets = np.zeros(len(moves), dtype=np.float32)
+    tail = 0.0
+    for i in range(len(moves) - 1, -1, -1):
+        tail = moves[i].reward + gamma * tail
+        targets[i] = tail
+    return targets
+
+
+def evaluation_return(
+    env: NSGymEnv,
+    function: PolicyValueFunction,
+    settings: PUCTSettings,
+    seeds: list[int],
+    rng: np.random.Generator,
+) -> float:
+    """Mean return of PUCT acting with ``function`` (most visited action) on episodes ``seeds``."""
+    total = 0.0
+    for seed in seeds:
+        env.reset(seed=seed)
+        done = False
+        while not done:
+            model = env.planning_model()
+            evaluate = model_evaluation(function, model)
+            action = puct(model, model.get_state(), rng, evaluate, settings).action
+            _, reward, terminated, truncated, _ = env.step(action)
+            total += float(reward)
+            done = terminated or truncated
+    return total / len(seeds)
+
+
 def train_alphazero(
     env: NSGymEnv,
     args: AlphaZeroArgs,
@@ -62,9 +175,10 @@ def train_alphazero(
     """Self-play ``args.episodes`` episodes in ``env`` (stationary, θ_0) and train the network.
 
     ``args`` must have its family defaults filled in (:meth:`AlphaZeroArgs.for_family`).
-    Everything random comes from ``seed`` (episodes, searches, move sampling, initialisation).
+    Everything random comes from ``seed``, split into independent streams (episodes, searches
+    and move sampling, initialisation, and the held-out evaluation episodes).
     ``progress`` is called after every episode with ``(episodes done, args.episodes)``; if it
-    returns True, training stops there (the network kept so far is returned).
+    returns True, training stops there (the best network evaluated so far is returned).
 
     Returns:
         The kept network's weights (:class:`PolicyValueFunction` layout) and training figures.
@@ -74,9 +188,17 @@ def train_alphazero(
     settings = args.puct_settings()
     space = env.family.observation_space
     num_actions = int(env.action_space.n)  # type: ignore[attr-defined]  # Discrete
-    rng = np.random.default_rng(seed)
+    rng, env_seed, torch_seed = training_seeds(seed)
+    # held-out evaluation episodes and their searches: streams of their own, the same for
+    # every evaluation (common random numbers across the networks compared)
+    held_out = np.random.SeedSequence([seed, 1]).generate_state(args.evaluation_episodes)
+    evaluation_seeds = [int(s) for s in held_out]
+    evaluation_search = np.random.SeedSequence([seed, 2])
+    evaluation_env = NSGymEnv(
+        env.family, params=env.base_params, max_episode_steps=env.max_episode_steps
+    )
     start = time.perf_counter()
-    with seeded_torch(seed):
+    with seeded_torch(torch_seed):
         network = PolicyValueNet(feature_size(space), args.hidden, num_actions)
         optimizer = torch.optim.Adam(
             network.parameters(), lr=args.learning_rate, weight_decay=args.weight_decay
@@ -84,31 +206,20 @@ def train_alphazero(
         samples: collections.deque = collections.deque(maxlen=args.window)
         temperature = args.temperature_start
         returns: list[float] = []
-        best_average, kept = -np.inf, network.export()
+        evaluations: list[tuple[int, float]] = []
+        best, kept = -np.inf, network.export()
 
-        observation, _ = env.reset(seed=seed)
-        for episode in range(args.episodes):
+        observation, _ = env.reset(seed=env_seed)
+        for episode in range(1, args.episodes + 1):
             # play one episode with the current network, recording the search targets
             function = PolicyValueFunction(network.export(), space)
-            episode_return, done, rewards, played = 0.0, False, [], []
-            while not done:
-                model = env.planning_model()
-                evaluate = model_evaluation(function, model)
-                tree = puct_tree(model, model.get_state(), rng, evaluate, settings)
-                policy = tree.policy_target(temperature)
-                played.append((features(space, observation["state"]), policy, tree.value_target()))
-                action = int(rng.choice(num_actions, p=policy))
-                observation, reward, terminated, truncated, _ = env.step(action)
-                episode_return += float(reward)
-                rewards.append(float(reward))
-                done = terminated or truncated
-            returns.append(episode_return)
-            if args.value_target == "return":  # z: the discounted return from each move on
-                tail = 0.0
-                for i in range(len(played) - 1, -1, -1):
-                    tail = rewards[i] + args.gamma * tail
-                    played[i] = (played[i][0], played[i][1], tail)
-            samples.extend(played)
+            moves = self_play_episode(env, observation, function, settings, temperature, rng)
+            returns.append(sum(move.reward for move in moves))
+            targets = value_targets(moves, args.value_target, args.gamma)
+            samples.extend(
+                (move.features, move.policy, target)
+                for move, target in zip(moves, targets, strict=True)
+            )
             observation, _ = env.reset()
 
             # full-batch gradient steps on the recent samples
@@ -123,21 +234,28 @@ def train_alphazero(
                 optimizer.step()
             temperature = max(args.temperature_decay * temperature, args.temperature_min)
 
-            # keep the network of the best moving-average return
-            average = float(np.mean(returns[-args.checkpoint_window :]))
-            if (
-                len(returns) >= min(args.checkpoint_window, args.episodes)
-                and average > best_average
-            ):
-                best_average, kept = average, network.export()
-            if progress is not None and progress(episode + 1, args.episodes):
+            # keep the network that acts best on the held-out episodes
+            if episode % args.evaluate_every == 0 or episode == args.episodes:
+                weights = network.export()
+                score = evaluation_return(
+                    evaluation_env,
+                    PolicyValueFunction(weights, space),
+                    settings,
+                    evaluation_seeds,
+                    np.random.default_rng(evaluation_search),
+                )
+                evaluations.append((episode, score))
+                if score > best:
+                    best, kept = score, weights
+            if progress is not None and progress(episode, args.episodes):
                 break
 
     info = {
         "seconds": time.perf_counter() - start,
         "episodes": len(returns),
-        "best_moving_average": float(best_average),
-        "last_returns_mean": float(np.mean(returns[-args.checkpoint_window :])),
+        "evaluations": evaluations,
+        "kept_evaluation": float(best),
+        "last_returns_mean": float(np.mean(returns[-10:])),
         "args": asdict(args),
     }
     return kept, info

@@ -1,10 +1,10 @@
 """Hyper-parameters of the learners (numpy-free of torch: specs and the catalog check them).
 
-Each learner's settings are one frozen ``Args`` dataclass with a docstring per field, as in cleanrl.
-Fields left ``None`` take the value the NS-Gym paper used for the environment family
-(:data:`DDQN_HIDDEN`, :data:`ALPHAZERO_PAPER`) when the learner is bound to an environment
-(:meth:`for_family`). Defaults are the quick size (seconds of training on two cores); the shipped
-specs' ``full`` size sets the paper-sized budgets.
+Each learner's settings are one frozen ``Args`` dataclass with a docstring per field, as in
+cleanrl. Fields left ``None`` take the paper's value for the environment family (the NS-Gym
+paper's appendix tables) when the learner is bound to an environment (:meth:`for_family`).
+Defaults are the quick size (seconds of training on two cores); the shipped specs' ``full``
+size sets the paper-sized budgets.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ DDQN_HIDDEN = {
     "CartPoleFamily": (64,),
 }
 
-#: AlphaZero's trunk widths and search constants per family, as the NS-Gym paper set them:
+#: AlphaZero's trunk widths and search constants per family (the NS-Gym paper's appendix):
 #: ``(hidden, c, gamma, dirichlet_alpha, noise)``.
 ALPHAZERO_PAPER = {
     "FrozenLakeFamily": ((64, 64, 64), 1.44, 0.999, 1.0, 0.0),
@@ -145,7 +145,7 @@ class DDQNArgs:
 
 @dataclass(frozen=True)
 class AlphaZeroArgs:
-    """AlphaZero self-play training on θ_0 (the NS-Gym paper's settings unless noted).
+    """AlphaZero self-play training on θ_0.
 
     Raises:
         TypeError, ValueError: A field of the wrong type or out of range (named in the message).
@@ -188,8 +188,11 @@ class AlphaZeroArgs:
     value_target: str = "return"
     """``"return"``: the discounted return from the move on (AlphaZero's z); ``"root_q"``: the
     visit-weighted root Q of the move's search (NS-Gym)."""
-    checkpoint_window: int = 10
-    """Episodes of the moving-average return that picks the kept network (paper: 100)."""
+    evaluate_every: int = 10
+    """Episodes between evaluations of the network (also after the last); the best evaluated
+    network is kept (the paper: the best 100-episode moving average of self-play returns)."""
+    evaluation_episodes: int = 4
+    """Held-out episodes per evaluation, played as the agent acts (PUCT, most visited action)."""
     max_episode_steps: int = 100
     """Truncation of self-play episodes."""
     seed: int = 0
@@ -212,7 +215,8 @@ class AlphaZeroArgs:
             "epochs",
             "window",
             "max_episode_steps",
-            "checkpoint_window",
+            "evaluate_every",
+            "evaluation_episodes",
         ):
             _integer(name, getattr(self, name), 1)
         _integer("depth", self.depth, 0)

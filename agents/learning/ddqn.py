@@ -27,7 +27,8 @@ import torch.nn.functional as F
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import feature_size, features
 from ns_pz.agents.learning.networks import export, mlp, seeded_torch
-from ns_pz.agents.learning.replay import ReplayBuffer
+from ns_pz.agents.learning.replay import Batch, ReplayBuffer
+from ns_pz.agents.learning.seeding import training_seeds
 
 from ns_pz.views import NSGymEnv
 
@@ -76,9 +77,10 @@ def train_ddqn(
 ) -> tuple[dict[str, np.ndarray], dict]:
     """Train a Double DQN in ``env`` (a stationary env at θ_0) for ``args.total_steps`` steps.
 
-    Everything random comes from ``seed``: the env's episodes, ε-greedy and replay sampling
-    (a numpy generator), the network initialisation (a forked torch generator). Torch runs on
-    one thread (the benchmark's workers use the other cores).
+    Everything random comes from ``seed``, split by :func:`training_seeds` into independent
+    streams: the env's episodes, ε-greedy and replay sampling (a numpy generator), the network
+    initialisation (a forked torch generator). Torch runs on one thread (the benchmark's
+    workers use the other cores).
 
     Args:
         env: The stationary training environment.
@@ -94,19 +96,15 @@ def train_ddqn(
     """
     space = env.family.observation_space
     num_actions = int(env.action_space.n)  # type: ignore[attr-defined]  # Discrete
-    rng = np.random.default_rng(seed)
+    rng, env_seed, torch_seed = training_seeds(seed)
     start = time.perf_counter()
-    with seeded_torch(seed):
-        q_network = mlp(feature_size(space), args.hidden, num_actions)
-        target_network = copy.deepcopy(q_network)
-        optimizer = torch.optim.Adam(
-            q_network.parameters(), lr=args.learning_rate, weight_decay=args.weight_decay
-        )
+    with seeded_torch(torch_seed):
+        q_network, target_network, optimizer = new_learner(feature_size(space), num_actions, args)
         buffer = ReplayBuffer(args.buffer_size, feature_size(space))
         returns: list[float] = []
         episode_return = 0.0
 
-        observation, _ = env.reset(seed=seed)
+        observation, _ = env.reset(seed=env_seed)
         x = features(space, observation["state"])
         for step in range(args.total_steps):
             # ε-greedy action, ε decaying linearly to its floor
@@ -132,22 +130,7 @@ def train_ddqn(
             # a gradient step every `train_every` steps once the buffer holds a batch
             if step >= args.learning_starts and step % args.train_every == 0:
                 batch = buffer.sample(args.batch_size, rng)
-                next_features = torch.from_numpy(batch.next_features)
-                with torch.no_grad():
-                    target = double_dqn_target(
-                        q_network(next_features),
-                        target_network(next_features),
-                        torch.from_numpy(batch.rewards),
-                        torch.from_numpy(batch.terminated),
-                        args.gamma,
-                    )
-                q_taken = q_network(torch.from_numpy(batch.features))
-                q_taken = q_taken.gather(1, torch.from_numpy(batch.actions)[:, None]).squeeze(1)
-                loss = F.mse_loss(q_taken, target)
-                optimizer.zero_grad()
-                loss.backward()
-                optimizer.step()
-                soft_update(target_network, q_network, args.tau)
+                gradient_step(q_network, target_network, optimizer, batch, args)
             if progress is not None and progress(step + 1, args.total_steps):
                 break
 
@@ -158,6 +141,68 @@ def train_ddqn(
         "args": asdict(args),
     }
     return export(q_network, "q"), info
+
+
+def new_learner(
+    inputs: int, num_actions: int, args: DDQNArgs
+) -> tuple[torch.nn.Sequential, torch.nn.Sequential, torch.optim.Optimizer]:
+    """A fresh online network, a separate target network equal to it, and Adam on the online one.
+
+    Draws the initial weights from torch's global generator (seed it first: ``seeded_torch``).
+
+    Raises:
+        ValueError: ``args.hidden`` is None (fill it in with :meth:`DDQNArgs.for_family`).
+    """
+    if args.hidden is None:
+        raise ValueError(f"args.hidden={args.hidden!r} must be filled in (DDQNArgs.for_family)")
+    q_network = mlp(inputs, args.hidden, num_actions)
+    target_network = copy.deepcopy(q_network)
+    optimizer = torch.optim.Adam(
+        q_network.parameters(), lr=args.learning_rate, weight_decay=args.weight_decay
+    )
+    return q_network, target_network, optimizer
+
+
+def td_loss(
+    online: torch.nn.Module, target: torch.nn.Module, batch: Batch, gamma: float
+) -> torch.Tensor:
+    """The mean squared error between ``Q_online(s, a)`` and the Double-DQN target of ``batch``.
+
+    The target (no gradient) takes the next action from ``online`` and its value from
+    ``target`` (:func:`double_dqn_target`).
+    """
+    next_features = torch.from_numpy(batch.next_features)
+    with torch.no_grad():
+        y = double_dqn_target(
+            online(next_features),
+            target(next_features),
+            torch.from_numpy(batch.rewards),
+            torch.from_numpy(batch.terminated),
+            gamma,
+        )
+    q_taken = online(torch.from_numpy(batch.features))
+    q_taken = q_taken.gather(1, torch.from_numpy(batch.actions)[:, None]).squeeze(1)
+    return F.mse_loss(q_taken, y)
+
+
+def gradient_step(
+    online: torch.nn.Module,
+    target: torch.nn.Module,
+    optimizer: torch.optim.Optimizer,
+    batch: Batch,
+    args: DDQNArgs,
+) -> float:
+    """One Adam step on :func:`td_loss`, then the Polyak update of ``target`` (rate ``args.tau``).
+
+    Returns:
+        The loss before the step.
+    """
+    loss = td_loss(online, target, batch, args.gamma)
+    optimizer.zero_grad()
+    loss.backward()
+    optimizer.step()
+    soft_update(target, online, args.tau)
+    return loss.item()
 
 
 def soft_update(target: torch.nn.Module, online: torch.nn.Module, tau: float) -> None:

@@ -50,8 +50,19 @@ _PAMCTS_ACTING = ("alpha", "normalise", "iterations", "depth", "c", "gamma", "ba
 def _ddqn_wn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
     """The DDQN it fine-tunes; the fine-tuning budget checked as the agent would."""
     acting = {**_defaults(build_ddqn_wn), **hyper}
-    check_fine_tuning(acting["model_steps"], acting["gradient_steps"], acting["epsilon"])
+    check_fine_tuning(*(acting[name] for name in _DDQN_WN_ACTING))
     return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
+
+
+_DDQN_WN_ACTING = (
+    "model_steps",
+    "gradient_steps",
+    "epsilon",
+    "time_budget",
+    "checks",
+    "evaluation_episodes",
+    "validate",
+)
 
 
 def _defaults(build: Callable[..., Any]) -> dict[str, Any]:
@@ -78,8 +89,8 @@ ENTRIES = (
     LearningEntry(
         "ddqn_wn",
         build_ddqn_wn,
-        "DDQN with notification: fine-tuned in the handed model (fixed step budget) on every "
-        "notified change",
+        "DDQN with notification: fine-tuned in the handed model (a step or time budget) on every "
+        "notified change, keeping the pre-change network unless a candidate scores better",
         build_ddqn_wn,
         _ddqn_wn_artefacts,
         levels=frozenset({"detailed"}),

@@ -1,9 +1,9 @@
 """PA-MCTS (Pettet et al., AAMAS 2024): UCT under the current model, mixed with a stale Q.
 
-UCT (:func:`ns_pz.agents.search.mcts.uct_tree`, compiled where MCTS is) runs
-in the planning model handed over; at the root its action values ``G`` are combined with the
-frozen Q-network of the base environment: ``argmax_a α q(a) + (1 - α) G(a)``. α is the weight
-of the stale policy: α = 0 is MCTS, α = 1 the stale DDQN. With ``normalise`` (NS-Gym's HEAD)
+UCT (:func:`ns_pz.agents.search.mcts.uct_tree`, compiled where MCTS is) runs in the planning
+model handed over; at the root its action values ``G`` are combined with the frozen
+Q-network of the base environment: ``argmax_a α q(a) + (1 - α) G(a)``. α is the weight of the
+stale policy: α = 0 is MCTS, α = 1 the stale DDQN. With ``normalise`` (NS-Gym's HEAD)
 both vectors are first min-max scaled to [0, 1] with a ``1e-8`` guard (the paper-era code
 divided by zero when all values were equal and then played action 0). Root actions the search
 never tried are not played unless α = 1. Ties are broken uniformly with the search generator.

@@ -1,4 +1,4 @@
-"""PUCT: AlphaZero's search, guided by a policy/value function (Silver et al. 2017).
+"""PUCT: AlphaZero's search, guided by a policy/value function (Silver et al.).
 
 A search function like :func:`ns_pz.agents.search.mcts.uct` (``search(model, root_state, rng)``
 with its settings bound), returning the same :class:`SearchResult`:
@@ -99,6 +99,8 @@ class PUCTTree:
         root_value: The network's value of the root.
         num_nodes: Decision nodes created, the root included.
         simulated_steps: Model transitions made.
+        priors: ``[num_actions]`` the root's priors as searched: the network's, mixed with
+            the Dirichlet noise (the only node that gets it).
     """
 
     visits: np.ndarray
@@ -106,6 +108,7 @@ class PUCTTree:
     root_value: float
     num_nodes: int
     simulated_steps: int
+    priors: np.ndarray
 
     def policy_target(self, temperature: float) -> np.ndarray:
         """``N(root, ·)^(1/T)`` normalised (computed in log space, so small T is safe)."""
@@ -214,7 +217,7 @@ def puct_tree(
             compiled.rng,
             rng,
         )
-        return PUCTTree(visits, q, value, int(nodes), int(simulated))
+        return PUCTTree(visits, q, value, int(nodes), int(simulated), priors)
     root = _Node(root_state, False, priors, value, num_actions)
     bounds = [np.inf, -np.inf] if settings.normalise_q else None
     nodes, simulated = 1, 0
@@ -249,7 +252,7 @@ def puct_tree(
             n.n += 1
             if bounds is not None:
                 bounds[0], bounds[1] = min(bounds[0], n.q[a]), max(bounds[1], n.q[a])
-    return PUCTTree(root.visits.copy(), root.q.copy(), value, nodes, simulated)
+    return PUCTTree(root.visits.copy(), root.q.copy(), value, nodes, simulated, root.priors)
 
 
 def puct(

@@ -12,7 +12,7 @@ from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import NumpyMLP, features
 from ns_pz.agents.learning.trained import ddqn_needed, obtain, torch_module
 
-from ns_pz.checks import count
+from ns_pz.checks import count, flag, positive_number
 from ns_pz.views import NSGymEnv
 
 
@@ -69,15 +69,30 @@ def build_ddqn(env: NSGymEnv, **hyper: Any) -> DDQNAgent:
     return DDQNAgent(ddqn_q_network(env, DDQNArgs(**hyper)))
 
 
-def check_fine_tuning(model_steps: Any, gradient_steps: Any, epsilon: Any) -> None:
+def check_fine_tuning(
+    model_steps: Any,
+    gradient_steps: Any,
+    epsilon: Any,
+    time_budget: Any = None,
+    checks: Any = 1,
+    evaluation_episodes: Any = 2,
+    validate: Any = True,
+) -> None:
     """Validate DDQN-WN's fine-tuning budget.
 
     Raises:
-        ValueError: A count that is not an int >= 0, or ``epsilon`` outside [0, 1].
-        TypeError: ``epsilon`` is not a real number.
+        ValueError: A count that is not an int >= 0, ``checks`` below 1, ``evaluation_episodes``
+            below 2, ``epsilon`` outside [0, 1], or a ``time_budget`` (when not None) that is
+            not a finite number > 0.
+        TypeError: ``epsilon`` is not a real number, or ``validate`` not a bool.
     """
+    flag("validate", validate)
     count("model_steps", model_steps, 0)
     count("gradient_steps", gradient_steps, 0)
+    count("checks", checks, 1)
+    count("evaluation_episodes", evaluation_episodes, 2)
+    if time_budget is not None:
+        positive_number("time_budget", time_budget)
     if isinstance(epsilon, bool) or not isinstance(epsilon, (int, float)):
         raise TypeError(f"epsilon={epsilon!r} must be a real number in [0, 1]")
     if not 0.0 <= epsilon <= 1.0:
@@ -90,15 +105,28 @@ def build_ddqn_wn(
     model_steps: int = 200,
     gradient_steps: int = 50,
     epsilon: float = 0.1,
+    time_budget: float | None = None,
+    checks: int = 5,
+    evaluation_episodes: int = 16,
+    validate: bool = True,
     ddqn: Mapping[str, Any] | None = None,
 ) -> Agent:
     """DDQN-WN for ``env``: the ``ddqn`` agent's network, fine-tuned on notified changes.
+
+    Each fine-tuning is validated in the handed model (see
+    :class:`ns_pz.agents.learning.ddqn_wn.FineTunedDDQNAgent`): the network kept is the best
+    scored of the pre-change one and ``checks`` candidates.
 
     Args:
         env: The environment it will act in.
         model_steps: Transitions simulated in the handed model per notified change.
         gradient_steps: Double-DQN updates per notified change.
         epsilon: Exploration of the simulated transitions.
+        time_budget: Seconds of simulation and updates per notified change instead of the step
+            counts (the paper: 0.4); None: the step counts.
+        checks: Rounds of the budget, each ending with a scored candidate.
+        evaluation_episodes: Greedy episodes in the handed model that score a candidate.
+        validate: False: keep the last fine-tuned network unscored (the paper's fine-tuning).
         ddqn: :class:`DDQNArgs` of the network (as the ``ddqn`` agent's, to share it); its
             learning rate, γ, τ, batch size and weight decay also drive the fine-tuning.
     """
@@ -112,4 +140,8 @@ def build_ddqn_wn(
         model_steps=model_steps,
         gradient_steps=gradient_steps,
         epsilon=epsilon,
+        time_budget=time_budget,
+        checks=checks,
+        evaluation_episodes=evaluation_episodes,
+        validate=validate,
     )
