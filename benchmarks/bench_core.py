@@ -46,6 +46,7 @@ import ns_pz
 import ns_pz.compat.schedulers as compat_schedulers
 import ns_pz.compat.update_functions as compat_updates
 import ns_pz.compat.wrappers as compat_wrappers
+from ns_pz.learning.seats import single_agent
 from ns_pz.nature import (
     ContinuousScheduler,
     DiscreteScheduler,
@@ -53,7 +54,6 @@ from ns_pz.nature import (
     IncrementUpdate,
     ScriptedNature,
 )
-from ns_pz.seats import single_agent
 
 try:  # NS-Gym, for a side-by-side measurement when it is installed
     import ns_gym.schedulers as ng_schedulers
@@ -503,7 +503,7 @@ def measure_sb3(num_envs: int, timesteps: int) -> None:
         from stable_baselines3 import PPO
         from stable_baselines3.common.env_util import make_vec_env
 
-        from ns_pz.sb3_vec import SB3VecEnv
+        from ns_pz.learning.sb3_vec import SB3VecEnv
     except ImportError:
         print("\nSB3 PPO: stable-baselines3 not installed (skipped)")
         return

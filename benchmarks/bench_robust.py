@@ -155,7 +155,7 @@ def ppo(steps: int) -> Any:
 def train_agent(method: str, seed: int, budget: Budget) -> Any:
     """The final agent of ``method`` from training seed ``seed``."""
     from ns_pz.learning import make_seat_env, rarl, train
-    from ns_pz.seats import single_agent
+    from ns_pz.learning.seats import single_agent
 
     kwargs = env_kwargs()
     if method in ("plain", "dr"):
@@ -298,8 +298,8 @@ def tabular_job(way: str, seed: int, episodes: int) -> dict[str, Any]:
 
     torch.set_num_threads(1)
     from ns_pz.learning import TrainArgs, episode_returns, train_adversary
+    from ns_pz.learning.seats import single_agent
     from ns_pz.nature import PolicyNature
-    from ns_pz.seats import single_agent
 
     options = dict(WAYS[way])
     kwargs, _ = lake_setting()

@@ -29,7 +29,7 @@ from ns_pz.vector import NSVectorEnv
 from ns_pz.views import NSGymEnv
 
 from ns_pz.envs.registry import make, make_gym, make_vec, register, registered_envs, spec  # isort: skip
-from ns_pz.seats import single_agent  # isort: skip
+from ns_pz.learning.seats import single_agent  # isort: skip
 from ns_pz.learning.robustness import evaluate_robustness  # isort: skip
 
 __version__ = "0.1.0"

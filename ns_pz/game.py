@@ -85,7 +85,7 @@ class NSGame(AECEnv):
         monitor_reward: What the monitor earns at its turn, for a learning monitor: ``None``
             (nothing, the default), ``"detection"`` (:class:`~ns_pz.monitor.DetectionReward`)
             or a function ``fn(process, flags) -> float`` of the flags just sent (as in
-            :func:`~ns_pz.seats.single_agent`). It is the monitor's reward of that step and
+            :func:`~ns_pz.learning.seats.single_agent`). It is the monitor's reward of that step and
             what ``last()`` gives the monitor at its next turn. The episode's last transition,
             which no monitor turn follows, pays the monitor as silence about it, at the
             decision turn that ends the episode.

@@ -14,7 +14,8 @@ of a time step lives. A time step ``t`` has three turns, which the process enfor
 A turn taken out of order raises ``ValueError``. :meth:`NSProcess.play_until` plays the
 configured nature and monitor (and, if given, a decision policy) until a chosen seat is to move:
 the Gymnasium view calls it after every transition and at reset, the game when asked for a
-policy's action, the learner environments of :mod:`ns_pz.seats` to skip to their learner's turn.
+policy's action, the learner environments of :mod:`ns_pz.learning.seats` to skip to their
+learner's turn.
 They therefore produce identical trajectories for the same seed and actions, for any nature and
 any monitor, stateful or random.
 

@@ -36,7 +36,7 @@ from ns_pz.rendering import Renderer, render_metadata
 class ProcessEnv:
     """What every single-agent env over a process shares: rendering it and the ground-truth info.
 
-    The Gymnasium view and the learner seats' envs (:mod:`ns_pz.seats`) set ``_process``,
+    The Gymnasium view and the learner seats' envs (:mod:`ns_pz.learning.seats`) set ``_process``,
     ``_renderer`` and ``_ground_truth_info``.
     """
 

@@ -65,7 +65,8 @@ def test_sb3_vec_without_stable_baselines3_names_the_learn_extra(
     hide: Callable[[str], None], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Importing the SB3 vector env without SB3 names the learn extra."""
-    monkeypatch.delitem(sys.modules, "ns_pz.sb3_vec", raising=False)
+    for name in ("ns_pz.sb3_vec", "ns_pz.learning.sb3_vec"):  # its new home and the old name
+        monkeypatch.delitem(sys.modules, name, raising=False)
     hide("stable_baselines3")
     with pytest.raises(MissingExtra, match=r'needs stable_baselines3.*"ns_pz\[learn\]"'):
         import ns_pz.sb3_vec  # noqa: F401

@@ -2,18 +2,24 @@
 
 Read the modules in this order:
 
-1. :mod:`~ns_pz.learning.rollouts` — play episodes with any policy, mean and standard error.
-2. :mod:`~ns_pz.learning.statistics` — CVaR, quantiles, the interquartile mean over runs and
+1. :mod:`~ns_pz.learning.seats` — :func:`single_agent`: the game seen from one seat (nature,
+   monitor or agent) as a Gymnasium env, the other seats played by fixed policies.
+2. :mod:`~ns_pz.learning.rollouts` — play episodes with any policy; mean and standard error.
+3. :mod:`~ns_pz.learning.statistics` — CVaR, quantiles, the interquartile mean over runs and
    bootstrap intervals.
-3. :mod:`~ns_pz.learning.robustness` — :func:`evaluate_robustness`: a policy over a θ grid,
+4. :mod:`~ns_pz.learning.robustness` — :func:`evaluate_robustness`: a policy over a θ grid,
    a suite of natures and freshly trained adversaries.
-4. :mod:`~ns_pz.learning.training` — SB3 training of one seat, vectorised; adversaries with
+5. :mod:`~ns_pz.learning.training` — SB3 training of one seat, vectorised; adversaries with
    restarts (``learn`` extra).
-5. :mod:`~ns_pz.learning.alternating` — RARL and its population variant (``learn`` extra).
+6. :mod:`~ns_pz.learning.alternating` — RARL and its population variant (``learn`` extra).
+7. :mod:`~ns_pz.learning.sb3_vec` and :mod:`~ns_pz.learning.rllib` — the native vector env as
+   an SB3 ``VecEnv``, and the game under RLlib.
 
-The seats themselves are :func:`ns_pz.single_agent` (:mod:`ns_pz.seats`); domain
-randomisation is a nature (:class:`ns_pz.nature.DomainRandomisation`). Importing this package
-loads no torch: the training names load Stable-Baselines3 on first use.
+How a policy plays a seat (:mod:`ns_pz.seat_policies`) and nature's payoffs
+(:mod:`ns_pz.regret`) stay beside the game, which uses them. Domain randomisation is a nature
+(:class:`ns_pz.nature.DomainRandomisation`). The earlier module paths (``ns_pz.seats``,
+``ns_pz.learn``, ``ns_pz.sb3_vec``, ``ns_pz.rllib``) still import. Importing this package loads
+no torch: the training names load Stable-Baselines3 on first use.
 """
 
 from __future__ import annotations

@@ -27,6 +27,7 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 
 from ns_pz.checks import count, flag
 from ns_pz.learning.rollouts import episode_returns, mean_and_se
+from ns_pz.learning.seats import single_agent
 from ns_pz.learning.training import TrainArgs, make_model, make_seat_env
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
@@ -34,7 +35,6 @@ from ns_pz.nature.policies import Nature, Proposal
 from ns_pz.params import Params
 from ns_pz.process import DECISION, NATURE
 from ns_pz.regret import RegretReference
-from ns_pz.seats import single_agent
 
 if TYPE_CHECKING:
     from ns_pz.process import NSProcess

@@ -244,7 +244,7 @@ def evaluate_robustness(
     Raises:
         TypeError / ValueError: A bad argument, before any episode runs.
     """
-    from ns_pz.seats import single_agent
+    from ns_pz.learning.seats import single_agent
 
     check_policy(policy, "agent", "policy")
     episodes = count("episodes", episodes)
@@ -320,9 +320,9 @@ def _summarise(
 def _find_adversary(
     policy: Any, env_id: str, search: AdversarySearch, seed: int, env_kwargs: dict[str, Any]
 ) -> dict[str, Any]:
+    from ns_pz.learning.seats import single_agent
     from ns_pz.learning.training import train_adversary
     from ns_pz.nature.learned import PolicyNature
-    from ns_pz.seats import single_agent
 
     models, selection = [], []
     selection_seeds = range(

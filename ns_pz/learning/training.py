@@ -34,10 +34,10 @@ from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
 from ns_pz.checks import count, flag
 from ns_pz.learning.rollouts import episode_returns
+from ns_pz.learning.seats import single_agent
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.process import DECISION, NATURE
-from ns_pz.seats import single_agent
 
 VEC_ENVS = ("dummy", "subproc")
 """How ``n_envs > 1`` environments run: in this process, or one subprocess each."""
