@@ -12,7 +12,16 @@ mujoco = pytest.importorskip("mujoco")
 gym = pytest.importorskip("gymnasium")
 
 from ns_pz.envs import mujoco_tasks  # noqa: E402
-from ns_pz.envs.mujoco_family import DAMPING, FRICTION, GRAVITY, MASS, MujocoFamily  # noqa: E402
+from ns_pz.envs.mujoco_family import MujocoFamily  # noqa: E402
+from ns_pz.envs.mujoco_knobs import (  # noqa: E402
+    DAMPING,
+    FRICTION,
+    FRICTIONLOSS,
+    GEAR,
+    GRAVITY,
+    MASS,
+    TILT,
+)
 
 import ns_pz  # noqa: E402
 
@@ -20,9 +29,9 @@ TASKS = mujoco_tasks.TASKS
 INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
 
 
-def family_of(name: str) -> MujocoFamily:
+def family_of(name: str, scale_inertia: bool = True) -> MujocoFamily:
     """A new family of task ``name``."""
-    return getattr(mujoco_tasks, f"{name}Family")()
+    return getattr(mujoco_tasks, f"{name}Family")(scale_inertia)
 
 
 def gymnasium_env(name: str):
@@ -37,32 +46,50 @@ def actions(family: MujocoFamily, count: int, seed: int = 7) -> list[np.ndarray]
     return [(rng.uniform(space.low, space.high) * 1.2).astype(np.float32) for _ in range(count)]
 
 
-def write_theta(model, family: MujocoFamily, theta) -> None:
-    """Write θ into a freshly built model by hand, as NS-Gym would, and fix its constants."""
+def write_theta(model, family: MujocoFamily, theta, scale_inertia: bool = True) -> None:
+    """Write θ into a freshly built (compiled) model by hand, and fix its constants.
+
+    Written from the knobs' definitions, independently of the family's writer.
+    """
+    friction0 = model.geom_friction[:, 0].copy()
+    gear0 = model.actuator_gear[:, 0].copy()
+    x0 = model.opt.gravity[0]
+    size = getattr(theta, "gravity", model.opt.gravity[2])
+    angle = getattr(theta, "gravity_tilt", 0.0)
+    model.opt.gravity[0] = x0 * np.cos(angle) - size * np.sin(angle)
+    model.opt.gravity[2] = x0 * np.sin(angle) + size * np.cos(angle)
     for knob in family.knobs:
         value = getattr(theta, knob.name)
-        if knob.kind == GRAVITY:
-            model.opt.gravity[2] = value
-        elif knob.kind == MASS:
-            model.body_mass[model.body(knob.element).id] = value
+        if knob.kind == MASS:
+            body = model.body(knob.element).id
+            if scale_inertia:
+                model.body_inertia[body] *= value / model.body_mass[body]
+            model.body_mass[body] = value
         elif knob.kind == DAMPING:
             model.dof_damping[model.jnt_dofadr[model.joint(knob.element).id]] = value
+        elif knob.kind == FRICTIONLOSS:
+            model.dof_frictionloss[model.jnt_dofadr[model.joint(knob.element).id]] = value
         elif knob.kind == FRICTION:
-            model.geom_friction[model.geom(knob.element).id, 0] = value
+            model.geom_friction[:, 0] = friction0 * (value / knob.default)
+        elif knob.kind == GEAR:
+            model.actuator_gear[:, 0] = gear0 * value
     mujoco.mj_setConst(model, mujoco.MjData(model))
 
 
 def changed_theta(family: MujocoFamily):
-    """Every knob moved inside its bounds: masses x1.3, damping +0.4, friction x1.5, gravity -1."""
+    """Every knob moved inside its bounds (masses x1.3, damping +0.4, friction x1.5, ...)."""
     theta = family.default_params()
     changes = {}
     for knob in family.knobs:
         value = getattr(theta, knob.name)
         changes[knob.name] = {
             GRAVITY: value - 1.0,
+            TILT: 0.1,
             MASS: value * 1.3,
             DAMPING: value + 0.4,
             FRICTION: value * 1.5,
+            FRICTIONLOSS: 5.0,
+            GEAR: 1.3,
         }[knob.kind]
     return theta.replace(**changes)
 
@@ -71,15 +98,30 @@ def changed_theta(family: MujocoFamily):
 def test_defaults_are_the_compiled_models_values(name):
     """Default θ is exactly what Gymnasium's model holds, so default θ changes nothing."""
     family = family_of(name)
-    model = gymnasium_env(name).model
-    for knob in family.knobs:
-        array, index = knob.slot(model)
-        assert array[index] == getattr(family.default_params(), knob.name), knob.name
+    assert family.params_of_model(gymnasium_env(name).model) == family.default_params()
+
+
+def as_gymnasium_info(info: dict) -> dict:
+    """Gymnasium's info as the family keeps it: numbers as float, arrays as float64."""
+    return {
+        key: np.asarray(value, np.float64) if np.ndim(value) else float(value)
+        for key, value in info.items()
+    }
+
+
+def assert_same_info(ours: dict, gymnasium: dict) -> None:
+    """Our info is Gymnasium's (as floats), plus ``"unstable": False``."""
+    assert ours.pop("unstable") is False
+    expected = as_gymnasium_info(gymnasium)
+    assert list(ours) == list(expected)
+    for key, value in expected.items():
+        np.testing.assert_array_equal(ours[key], value, err_msg=key)
+        assert type(ours[key]) is type(value), key
 
 
 @pytest.mark.parametrize("name", TASKS)
 def test_default_theta_matches_gymnasium_bit_for_bit(name):
-    """Reset and 200 steps (stepping on past termination) equal Gymnasium's v5 env's.
+    """Reset and 200 steps (stepping on past termination) equal Gymnasium's v5 env's, info too.
 
     Between two steps the family's simulator steps another state, as a planner would, so
     anything a step reads that the state does not restore shows up.
@@ -87,28 +129,33 @@ def test_default_theta_matches_gymnasium_bit_for_bit(name):
     family, env = family_of(name), gymnasium_env(name)
     theta = family.default_params()
     for seed in (0, 3):
-        observation, _ = env.reset(seed=seed)
+        observation, info = env.reset(seed=seed)
         rng = np.random.default_rng(seed)
         state = family.initial_state_under(theta, rng)
         other = family.initial_state_under(theta, np.random.default_rng(seed + 1))
         np.testing.assert_array_equal(family.observe(state), observation)
+        assert_same_info(family.info(state), info)
         for action in actions(family, 200, seed):
             other = family.step(other, -action, theta, rng)[0]
-            observation, reward, terminated, _, _ = env.step(action)
+            observation, reward, terminated, _, info = env.step(action)
             state, our_reward, our_terminated = family.step(state, action, theta, rng)
             np.testing.assert_array_equal(family.observe(state), observation)
             assert (our_reward, our_terminated) == (reward, terminated)
+            assert_same_info(family.info(state), info)
 
 
-@pytest.mark.parametrize("name", TASKS)
-def test_theta_changed_mid_episode_equals_a_model_built_with_it(name):
+@pytest.mark.parametrize(
+    ("name", "scale_inertia"),
+    [(name, True) for name in TASKS] + [("Hopper", False), ("HalfCheetah", False)],
+)
+def test_theta_changed_mid_episode_equals_a_model_built_with_it(name, scale_inertia):
     """θ changed at step 10 gives, for 1,000 steps, exactly the trajectory of a fresh model.
 
-    The fresh model is Gymnasium's env with θ written before it ever stepped; it continues
-    from the family's integration state at the change. A change of every knob also moves the
-    trajectory (so the comparison can fail).
+    The fresh model is Gymnasium's env with θ written before it ever stepped (by hand, from
+    the knobs' definitions); it continues from the family's integration state at the change. A
+    change of every knob also moves the trajectory (so the comparison can fail).
     """
-    family = family_of(name)
+    family = family_of(name, scale_inertia)
     theta0, theta1 = family.default_params(), changed_theta(family)
     plan = actions(family, 1010)
     rng = np.random.default_rng(0)
@@ -116,7 +163,7 @@ def test_theta_changed_mid_episode_equals_a_model_built_with_it(name):
     for action in plan[:10]:
         state, _, _ = family.step(state, action, theta0, rng)
     fresh = gymnasium_env(name)
-    write_theta(fresh.model, family, theta1)
+    write_theta(fresh.model, family, theta1, scale_inertia)
     fresh.reset(seed=0)
     family.load(state)  # the carried kinematics into the family's data, copied below
     mujoco.mj_setState(
@@ -136,33 +183,40 @@ def test_theta_changed_mid_episode_equals_a_model_built_with_it(name):
     assert differs, "changing every knob did not move the trajectory"
 
 
-@pytest.mark.parametrize("name", ["InvertedPendulum", "HalfCheetah", "Hopper", "Ant", "Humanoid"])
-def test_every_knob_moves_the_trajectory(name):
-    """Each θ field alone, raised, changes the states within 100 steps (it reaches the model).
+LIVE = 1e-3
+"""The least change of some observation entry that counts as a knob acting."""
 
-    Known exception: InvertedPendulum's rail geom takes part in no contact, so its
-    ``rail_friction`` (NS-Gym's name, kept for compat) has no effect.
+
+def observations_under(family: MujocoFamily, theta, steps: int = 100) -> np.ndarray:
+    """Observations of ``steps`` seeded random steps under ``theta`` from a seeded start."""
+    rng = np.random.default_rng(1)
+    state = family.initial_state_under(family.default_params(), rng)
+    out = []
+    for action in actions(family, steps):
+        state, _, _ = family.step(state, action, theta, rng)
+        out.append(family.observe(state))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("name", TASKS)
+def test_every_knob_acts_at_both_ends_of_its_range(name):
+    """Each θ field alone, at its lower and at its upper bound, moves the trajectory.
+
+    Same start, same actions, 100 steps: some observation entry differs from the default θ's
+    by more than :data:`LIVE` (bit-level noise does not count). An end that is the default
+    (no damping, no dry friction, no tilt is Gymnasium's own) is not a change.
     """
     family = family_of(name)
     theta0 = family.default_params()
-    plan = actions(family, 100)
-    inert = {"rail_friction"}
-
-    def run(theta):
-        rng = np.random.default_rng(1)
-        state = family.initial_state_under(theta0, rng)
-        states = []
-        for action in plan:
-            state, _, _ = family.step(state, action, theta, rng)
-            states.append(state)
-        return states
-
-    base = run(theta0)
-    for knob in family.knobs:
-        value = getattr(theta0, knob.name)
-        raised = value - 2.0 if knob.kind == GRAVITY else max(value * 3, 0.5)
-        moved = run(theta0.replace(**{knob.name: raised})) != base
-        assert moved != (knob.name in inert), knob.name
+    base = observations_under(family, theta0)
+    dead = []
+    for spec in family.params_cls.specs():
+        for end in (spec.low, spec.high):
+            if end != spec.default:
+                moved = observations_under(family, theta0.replace(**{spec.name: end})) - base
+                if np.max(np.abs(moved)) <= LIVE:
+                    dead.append(f"{spec.name}={end}")
+    assert not dead, f"{name}: these knob values change nothing: {dead}"
 
 
 def test_returning_to_default_theta_is_gymnasium_again():
