@@ -102,11 +102,14 @@ class MujocoFamily(EnvFamily):
 
     A step in which MuJoCo finds the physics unstable (a bad position, velocity or acceleration,
     after which it resets the simulation to the rest pose by itself) is terminal, with reward
-    0.0: what follows it is not a continuation of the episode, and its reward (computed across
-    the reset) is not a reward of the task. Its ``info`` says ``"unstable": True`` and names the
-    warnings in ``"mujoco_warnings"``; Gymnasium's reward of that step is
-    ``info["unstable_reward"]``. Terminated rather than truncated, so that a learner does not
-    bootstrap from the rest pose as if the episode went on from there.
+    0.0, and its observation is that of the rest pose: what follows it is not a continuation of
+    the episode, and its reward (computed from a diverged state or across the reset) is not a
+    reward of the task. Its ``info`` says ``"unstable": True`` and names the warnings in
+    ``"mujoco_warnings"``; Gymnasium's reward of that step is ``info["unstable_reward"]``.
+    Terminated rather than truncated, so that a learner does not bootstrap from the rest pose as
+    if the episode went on from there. The check costs one ``mj_checkVel`` (MuJoCo checks a
+    substep's velocities at the start of the next, so the last one's are checked here) and three
+    integer reads per step.
 
     Args:
         scale_inertia: A mass knob scales its body's inertia by the same factor (the same shape,
@@ -261,15 +264,29 @@ class MujocoFamily(EnvFamily):
         if theta is not self._theta:
             self._write(theta)  # load() below restores what mj_setConst moved
         self.load(state)
-        observation, reward, terminated, _, info = self._env.step(action)
+        env = self._env
+        observation, reward, terminated, _, info = env.step(action)
+        # MuJoCo checks velocities at the start of a substep: check the last one's here
+        mujoco.mj_checkVel(self._model, self._data)
         warnings, (qpos, qvel, qacc) = self._warnings, self._warning_slots
         if warnings[qpos] or warnings[qvel] or warnings[qacc]:
-            status = UNSTABLE + warning_bits(warnings)
-            warnings[:] = 0  # counted again from zero at the next step
-            info_bytes = self._info.pack(info, step=True)
-            return self._pack(observation, info_bytes, status, float(reward)), 0.0, True
+            return self._unstable(float(reward)), 0.0, True
         packed = self._pack(observation, self._info.pack(info, step=True), STEPPED)
         return packed, float(reward), bool(terminated)
+
+    def _unstable(self, reward: float) -> bytes:
+        """The state after an unstable step: MuJoCo's rest pose, seen as such, and the warnings.
+
+        Gymnasium's observation and info of that step were computed across MuJoCo's reset (or
+        from the diverged state) and mean nothing: the observation is that of the rest pose and
+        the info values are left out (zeros in the state).
+        """
+        warnings = self._warnings
+        status = UNSTABLE + warning_bits(warnings)
+        warnings[:] = 0  # counted again from zero at the next step
+        mujoco.mj_forward(self._model, self._data)
+        observation = self._env._get_obs()
+        return self._pack(observation, bytes(8 * self._info.size), status, reward)
 
     def observe(self, state: bytes) -> np.ndarray:
         """Gymnasium's observation of ``state`` (float64), as stored in it."""
@@ -279,18 +296,22 @@ class MujocoFamily(EnvFamily):
     def info(self, state: bytes) -> dict[str, Any]:
         """Gymnasium's ``info`` of ``state`` (reset info for a start state, else step info).
 
-        Every state's info has ``"unstable"`` (a bool); after an unstable step also
-        ``"mujoco_warnings"`` (the names of MuJoCo's warnings) and ``"unstable_reward"``
-        (Gymnasium's reward of that step, which the family replaced by 0.0).
+        Every state's info has ``"unstable"`` (a bool). After an unstable step the info is
+        ``"unstable": True``, ``"mujoco_warnings"`` (the names of MuJoCo's warnings) and
+        ``"unstable_reward"`` (Gymnasium's reward of that step, which the family replaced by
+        0.0; possibly huge or NaN), without Gymnasium's terms.
         """
         layout = self.layout
         values = np.frombuffer(state, count=layout.info + 2, offset=layout.info_offset * 8)
         status = float(values[-2])
-        info = self._info.unpack(values, step=status != START)
-        info["unstable"] = status >= UNSTABLE
         if status >= UNSTABLE:
-            info["mujoco_warnings"] = warning_names(status)
-            info["unstable_reward"] = float(values[-1])
+            return {
+                "unstable": True,
+                "mujoco_warnings": warning_names(status),
+                "unstable_reward": float(values[-1]),
+            }
+        info = self._info.unpack(values, step=status != START)
+        info["unstable"] = False
         return info
 
     def painter(self) -> Painter:
@@ -303,7 +324,7 @@ class MujocoFamily(EnvFamily):
         """``state`` if it is a state of this family: ``bytes`` of the right size, all finite.
 
         Raises:
-            ValueError: Another type, another size, or NaN / infinity inside.
+            ValueError: Another type, another size, NaN / infinity inside, or an unknown status.
         """
         size = self.layout.size
         if not isinstance(state, bytes) or len(state) != size * 8:
@@ -311,8 +332,17 @@ class MujocoFamily(EnvFamily):
                 f"state={state!r:.80} is not a state of {self!r}; allowed: bytes of {size} "
                 "float64 values, as get_state() returns"
             )
-        if not np.isfinite(np.frombuffer(state)).all():
+        values = np.frombuffer(state, count=size - 1)  # Gymnasium's unstable reward may be NaN
+        if not np.isfinite(values).all():
             raise ValueError(f"state of {self!r} holds NaN or infinity; allowed: finite values")
+        status = float(values[-1])
+        if status not in (START, STEPPED) and not (
+            status == int(status) and UNSTABLE < status < UNSTABLE + (1 << len(UNSTABLE_WARNINGS))
+        ):
+            raise ValueError(
+                f"state of {self!r} has status {status!r}; allowed: {START:g} (start), {STEPPED:g} "
+                f"(stepped), {UNSTABLE + 1:g} to {UNSTABLE + 7:g} (unstable), as step() makes them"
+            )
         return state
 
     def planning_model(self, theta: Params, state: bytes, rng: np.random.Generator) -> Any:

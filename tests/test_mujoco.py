@@ -369,3 +369,221 @@ def test_mujoco_wrapper_refuses_what_it_cannot_run():
         MujocoWrapper(gym.make("HalfCheetah-v5", frame_skip=10), {})
     with pytest.raises(ValueError, match="built with reset_noise_scale=0.5 "):
         MujocoWrapper(gym.make("HalfCheetah-v5", reset_noise_scale=0.5), {})
+
+
+# -- knobs: units, inertia, tilt, gear -----------------------------------------------------------
+@pytest.mark.parametrize("name", TASKS)
+def test_joint_knob_units_follow_the_joint_type(name):
+    """Damping is N·s/m on a slide joint and N·m·s/rad on a hinge; dry friction N or N·m."""
+    family = family_of(name)
+    model = family._model
+    for knob in family.knobs:
+        if knob.kind not in (DAMPING, FRICTIONLOSS):
+            continue
+        slide = model.jnt_type[model.joint(knob.element).id] == mujoco.mjtJoint.mjJNT_SLIDE
+        expected = {
+            (DAMPING, True): "N s/m",
+            (DAMPING, False): "N m s/rad",
+            (FRICTIONLOSS, True): "N",
+            (FRICTIONLOSS, False): "N m",
+        }[knob.kind, bool(slide)]
+        assert family.params_cls.spec(knob.name).unit == expected, knob.name
+
+
+def test_a_mass_scales_its_inertia_unless_told_not_to():
+    """scale_inertia=True (the default): inertia x factor; False: inertia as compiled."""
+    heavy = mujoco_tasks.HalfCheetahParams().replace(torso_mass=6.25020920502092 * 2)
+    compiled = gymnasium_env("HalfCheetah").model
+    torso = compiled.body("torso").id
+    trajectories = []
+    for scale_inertia, factor in ((True, 2.0), (False, 1.0)):
+        family = family_of("HalfCheetah", scale_inertia)
+        family.apply(heavy)
+        np.testing.assert_allclose(
+            family._model.body_inertia[torso], compiled.body_inertia[torso] * factor, rtol=1e-15
+        )
+        trajectories.append(observations_under(family, heavy))
+    assert np.max(np.abs(trajectories[0] - trajectories[1])) > LIVE
+    assert repr(family_of("Hopper", False)) == "HopperFamily(scale_inertia=False)"
+
+
+def test_gravity_tilt_turns_the_compiled_vector_about_y():
+    """InvertedDoublePendulum's compiled gravity has x = 1e-5: the tilt turns the whole vector."""
+    family = family_of("InvertedDoublePendulum")
+    x0, g, angle = 1e-5, -12.0, 0.25
+    family.apply(family.default_params().replace(gravity=g, gravity_tilt=angle))
+    expected = [x0 * np.cos(angle) - g * np.sin(angle), 0.0, x0 * np.sin(angle) + g * np.cos(angle)]
+    np.testing.assert_allclose(family._model.opt.gravity, expected, rtol=1e-15)
+    assert family._model.opt.gravity[0] > 0  # a positive tilt pulls toward +x
+    family.apply(family.default_params())
+    assert family._model.opt.gravity.tolist() == [1e-5, 0.0, -9.81]
+
+
+def test_actuator_gain_and_friction_scale_every_element():
+    """actuator_gain scales every gear; floor_friction scales every geom's sliding friction."""
+    family = family_of("Hopper")
+    compiled = gymnasium_env("Hopper").model
+    family.apply(family.default_params().replace(actuator_gain=1.5, floor_friction=0.5))
+    np.testing.assert_array_equal(
+        family._model.actuator_gear[:, 0], compiled.actuator_gear[:, 0] * 1.5
+    )
+    np.testing.assert_array_equal(
+        family._model.geom_friction[:, 0], compiled.geom_friction[:, 0] * 0.5
+    )
+    np.testing.assert_array_equal(family._model.geom_friction[:, 1:], compiled.geom_friction[:, 1:])
+
+
+def test_compat_reads_what_theta_can_express_and_refuses_the_rest():
+    """A model whose floor alone was changed (NS-Gym's way) is not a θ of ours: say so."""
+    family = family_of("Hopper")
+    model = gymnasium_env("Hopper").model
+    model.actuator_gear[:, 0] *= 2
+    assert family.params_of_model(model).actuator_gain == 2.0
+    model.geom_friction[model.geom("floor").id, 0] = 0.5
+    with pytest.raises(ValueError, match="floor_friction: the model's values"):
+        family.params_of_model(model)
+
+
+# -- instability ---------------------------------------------------------------------------------
+def fragile_swimmer() -> MujocoFamily:
+    """Swimmer with masses allowed down to a tenth, masses without inertia: unstable there."""
+    from ns_pz.envs.mujoco_family import task_family
+    from ns_pz.envs.mujoco_knobs import mass
+
+    knobs = tuple(
+        mass(knob.name, knob.element, knob.default, low=0.1) if knob.kind == MASS else knob
+        for knob in mujoco_tasks.SwimmerFamily.knobs
+    )
+    cls = task_family("FragileSwimmer", mujoco_tasks.SwimmerFamily.gymnasium_env, knobs)
+    return cls(scale_inertia=False)
+
+
+def test_an_unstable_step_is_terminal_reported_and_never_leaks_a_spike():
+    """At a tenth of every mass (inertia kept) MuJoCo diverges: every such step is caught.
+
+    Each episode runs until it terminates; a step MuJoCo finds unstable is terminal with
+    reward 0, its info says so and keeps Gymnasium's reward aside, its observation is the rest
+    pose; no step reports a diverged observation or reward as if it were stable.
+    """
+    family = fragile_swimmer()
+    theta = family.params_cls.from_mapping(
+        {k.name: k.low if k.kind == MASS else k.default for k in family.knobs}
+    )
+    rng = np.random.default_rng(0)
+    rest = None
+    unstable = 0
+    for _ in range(20):
+        state = family.initial_state_under(theta, rng)
+        for action in actions(family, 300, int(rng.integers(1 << 30))):
+            state, reward, terminated = family.step(state, action, theta, rng)
+            info = family.info(state)
+            observation = family.observe(state)
+            if info["unstable"]:
+                unstable += 1
+                assert terminated and reward == 0.0
+                assert info["mujoco_warnings"] and set(info) == {
+                    "unstable",
+                    "mujoco_warnings",
+                    "unstable_reward",
+                }
+                rest = observation if rest is None else rest
+                np.testing.assert_array_equal(observation, rest)  # the rest pose
+                family.check_state(state)  # a state like any other
+                break
+            assert np.all(np.abs(observation) < 1e6) and abs(reward) < 1e3
+    assert unstable >= 5
+
+
+def test_a_diverged_state_is_caught_in_the_step_that_makes_it():
+    """A velocity past MuJoCo's limit, set through a planning model: the very next step."""
+    env = ns_pz.make_gym("ns_pz/Hopper-v0")
+    env.reset(seed=0)
+    model = env.unwrapped.planning_model()
+    values = np.frombuffer(model.get_state()).copy()
+    nq = model.family._model.nq
+    values[1 + nq] = 1e11  # qvel[0]: after time and qpos
+    model.set_state(values.tobytes())
+    _, reward, terminated = model.step(np.zeros(3, np.float32))[:3]
+    assert (reward, terminated) == (0.0, True)
+    info = model.family.info(model.get_state())
+    assert info["unstable"] and info["mujoco_warnings"] == ("mjWARN_BADQVEL",)
+
+
+def test_the_view_ends_an_unstable_episode_and_says_why():
+    """Through the Gymnasium view: terminated, info["unstable"], Gymnasium's terms gone."""
+    env = ns_pz.make_gym("ns_pz/Hopper-v0")
+    env.reset(seed=0)
+    process = env.unwrapped.process
+    values = np.frombuffer(process.state).copy()
+    values[1 + process.family._model.nq] = 1e11
+    process.state = values.tobytes()
+    _, reward, terminated, truncated, info = env.step(np.zeros(3, np.float32))
+    assert (reward, terminated, truncated) == (0.0, True, False)
+    assert info["unstable"] is True and "x_velocity" not in info
+
+
+def test_states_with_an_unknown_status_are_refused():
+    """The status word of a state is checked like the rest."""
+    family = family_of("Hopper")
+    values = np.frombuffer(family.initial_state(np.random.default_rng(0))).copy()
+    values[-2] = 1.5
+    with pytest.raises(ValueError, match="status 1.5"):
+        family.check_state(values.tobytes())
+
+
+# -- Gymnasium's info, rendering, the missing extra ----------------------------------------------
+def test_the_view_passes_gymnasiums_info_on():
+    """Hopper's reward terms reach the view's info and add up to the reward; θ on request."""
+    env = gym.make("ns_pz/Hopper-v0", ground_truth_info=True)
+    _, info = env.reset(seed=0)
+    assert set(info) == {"x_position", "z_distance_from_origin", "unstable", "theta"}
+    _, reward, _, _, info = env.step(np.zeros(3, np.float32))
+    assert {"x_velocity", "reward_forward", "reward_ctrl", "reward_survive"} <= set(info)
+    assert reward == info["reward_forward"] + info["reward_ctrl"] + info["reward_survive"]
+    assert info["theta"]["gravity"] == -9.81 and info["unstable"] is False
+
+
+RENDER_SCRIPT = """
+import numpy as np, gymnasium as gym, ns_pz
+for env_id in ("ns_pz/InvertedPendulum-v0", "ns_pz/Hopper-v0"):
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.reset(seed=0)
+    first = env.render()
+    for _ in range(5):
+        env.step(env.action_space.sample())
+    frame = env.render()
+    env.close()
+    print(env_id, first.shape, first.dtype, int(np.abs(first.astype(int) - frame).sum() > 0))
+"""
+
+
+def test_rgb_array_frames_on_a_machine_without_a_display(tmp_path):
+    """MUJOCO_GL=egl: 480 x 480 frames that change as the task moves (skipped without EGL)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "MUJOCO_GL": "egl"}
+    result = subprocess.run(
+        [sys.executable, "-c", RENDER_SCRIPT], capture_output=True, text=True, env=env, cwd=tmp_path
+    )
+    if result.returncode and "OpenGL context" in result.stderr:
+        pytest.skip(
+            "no EGL: apt-get install libegl1 libgl1-mesa-dri (" + result.stderr[-200:] + ")"
+        )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split("\n")[:2] == [
+        "ns_pz/InvertedPendulum-v0 (480, 480, 3) uint8 1",
+        "ns_pz/Hopper-v0 (480, 480, 3) uint8 1",
+    ]
+
+
+def test_without_mujoco_a_mujoco_id_names_the_extra(monkeypatch):
+    """ns_pz and gymnasium.make both say to install ns_pz[mujoco]."""
+    from ns_pz.envs import registry
+
+    monkeypatch.delitem(registry._SPECS, "ns_pz/Hopper-v0")
+    with pytest.raises(ns_pz.UnknownEnvironment, match=r'pip install "ns_pz\[mujoco\]"'):
+        ns_pz.make_gym("ns_pz/Hopper-v0")
+    with pytest.raises(ns_pz.UnknownEnvironment, match=r"Hopper-v0 needs MuJoCo"):
+        gym.make("ns_pz/Hopper-v0")
