@@ -19,6 +19,7 @@ import array
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import mujoco
@@ -68,15 +69,23 @@ class InfoLayout:
 
         return cls(shapes(reset_info), shapes(step_info))
 
-    @property
+    @cached_property
     def size(self) -> int:
         """float64 entries the info takes in a state (the larger of the two)."""
         return max(_count(self.reset), _count(self.step))
 
-    @property
+    @cached_property
     def scalars(self) -> bool:
         """Whether every entry of both is a scalar (then packing is one ``array`` call)."""
         return all(shape == () for _, shape in self.reset + self.step)
+
+    @cached_property
+    def _reset_keys(self) -> tuple[str, ...]:
+        return tuple(key for key, _ in self.reset)
+
+    @cached_property
+    def _step_keys(self) -> tuple[str, ...]:
+        return tuple(key for key, _ in self.step)
 
     def pack(self, info: Mapping[str, Any], step: bool) -> bytes:
         """The values of ``info`` (of the step or reset kind) as float64 bytes of :attr:`size`."""
@@ -93,9 +102,13 @@ class InfoLayout:
 
     def unpack(self, values: np.ndarray, step: bool) -> dict[str, Any]:
         """The info dict from its float64 ``values`` (scalars as ``float``, arrays as copies)."""
+        entries = self.step if step else self.reset
+        if self.scalars:  # the common case: one conversion to Python floats
+            keys = self._step_keys if step else self._reset_keys
+            return dict(zip(keys, values.tolist(), strict=False))
         info: dict[str, Any] = {}
         offset = 0
-        for key, shape in self.step if step else self.reset:
+        for key, shape in entries:
             count = math.prod(shape)
             if shape == ():
                 info[key] = float(values[offset])
