@@ -40,13 +40,21 @@ import numpy as np
 from ns_pz.params import Params, scalar
 
 GRAVITY = "gravity"
+"""Kind: the size of gravity along the (tilted) vertical."""
 TILT = "tilt"
+"""Kind: gravity turned about the y axis."""
 MASS = "mass"
+"""Kind: one body's mass (and inertia)."""
 DAMPING = "damping"
+"""Kind: one joint's viscous damping."""
 FRICTION = "friction"
+"""Kind: one geom's sliding friction, every geom's scaled with it."""
 FRICTIONLOSS = "frictionloss"
+"""Kind: one joint's dry friction."""
 GEAR = "gear"
+"""Kind: a factor on every actuator's gear."""
 KINDS = (GRAVITY, TILT, MASS, DAMPING, FRICTION, FRICTIONLOSS, GEAR)
+"""Every kind of knob."""
 
 _CONSTANTS = (MASS, GEAR)
 """Kinds after whose change MuJoCo's derived constants must be recomputed (``mj_setConst``)."""

@@ -30,6 +30,7 @@ GL_HINT = (
     "MUJOCO_GL=egl (apt-get install libegl1 libgl1-mesa-dri) or MUJOCO_GL=osmesa (apt-get "
     "install libosmesa6) before mujoco is imported"
 )
+"""What the error says when no OpenGL context can be made."""
 
 
 class MujocoPainter:
