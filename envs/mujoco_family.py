@@ -2,8 +2,7 @@
 
 A family owns one Gymnasium MuJoCo env (its ``MjModel`` and ``MjData``) as a simulator and
 steps it with that env's own ``step``, so frame skip, reward, termination and observation are
-Gymnasium v5's exactly. θ is applied to the model before a step, and only when it changed:
-
+Gymnasium v5's exactly. θ is applied to the model before a step, and only when it changed.
 θ is made of knobs (:mod:`ns_pz.envs.mujoco_knobs`: gravity and its tilt, body masses,
 joint damping and dry friction, a friction factor on every geom, a gear factor on every
 actuator); Gymnasium's ``info`` and MuJoCo's instability warnings travel in the state
@@ -132,7 +131,8 @@ class MujocoFamily(EnvFamily):
         self._model, self._data = model, data
         self.observation_space = self._env.observation_space
         self.action_space = self._env.action_space
-        self.render_fps = int(self._env.metadata["render_fps"])
+        # the task's own frame rate (1 / its step's duration), known once the model is built
+        self.render_fps = int(self._env.metadata["render_fps"])  # type: ignore[misc]
         self._writer = ModelWriter(model, self.knobs, scale_inertia)
         self._read_theta = operator.attrgetter(*(knob.name for knob in self.knobs))
         self._theta: Params = self.default_params()
@@ -154,7 +154,7 @@ class MujocoFamily(EnvFamily):
         env = self._env
         mujoco.mj_resetData(self._model, self._data)
         reset_info = env._get_reset_info()
-        step_info = env.step(np.zeros(self.action_space.shape, self.action_space.dtype))[-1]
+        step_info = env.step(np.zeros(self._model.nu, np.float32))[-1]
         mujoco.mj_resetData(self._model, self._data)
         return InfoLayout.of(reset_info, step_info)
 

@@ -75,7 +75,6 @@ class MujocoWrapper(ScalarWrapper):
     def _family_and_params(
         self, env: gym.Env[Any, Any], binding: Binding, settings: dict[str, Any]
     ) -> tuple[EnvFamily, Params]:
-        family: MujocoFamily = binding.family_class()(  # type: ignore[assignment]
-            scale_inertia=False, **settings
-        )
+        family_class: type[MujocoFamily] = binding.family_class()  # type: ignore[assignment]
+        family = family_class(scale_inertia=False, **settings)  # masses alone, as NS-Gym
         return family, family.params_of_model(env.unwrapped.model)  # type: ignore[attr-defined]
