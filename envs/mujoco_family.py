@@ -54,8 +54,9 @@ if TYPE_CHECKING:
     from ns_pz.rendering import Painter
 
 _INTEGRATION = mujoco.mjtState.mjSTATE_INTEGRATION
-_pack_tail = struct.Struct("dd").pack
+_tail = struct.Struct("=dd")
 """The last two float64 of a state: its status and Gymnasium's reward of an unstable step."""
+_pack_tail = _tail.pack
 
 
 @dataclass(frozen=True)
@@ -144,6 +145,10 @@ class MujocoFamily(EnvFamily):
             self._buffer.size, carried, self._env.observation_space.shape[0], self._info.size
         )
         self._carried_views = [getattr(data, field) for field in self.carried]
+        layout = self.layout  # byte offsets, read at every step
+        self._observation_at = layout.observation_offset * 8
+        self._info_at = layout.info_offset * 8
+        self._tail_at = (layout.info_offset + layout.info) * 8
         warnings = data.warning.number  # a view into MjData: reading it is reading MuJoCo's
         self._warnings = warnings
         self._warning_slots = tuple(int(w) for w in UNSTABLE_WARNINGS)
@@ -290,8 +295,9 @@ class MujocoFamily(EnvFamily):
 
     def observe(self, state: bytes) -> np.ndarray:
         """Gymnasium's observation of ``state`` (float64), as stored in it."""
-        offset = self.layout.observation_offset * 8
-        return np.frombuffer(state, count=self.layout.observation, offset=offset).copy()
+        return np.frombuffer(
+            state, count=self.layout.observation, offset=self._observation_at
+        ).copy()
 
     def info(self, state: bytes) -> dict[str, Any]:
         """Gymnasium's ``info`` of ``state`` (reset info for a start state, else step info).
@@ -301,16 +307,14 @@ class MujocoFamily(EnvFamily):
         ``"unstable_reward"`` (Gymnasium's reward of that step, which the family replaced by
         0.0; possibly huge or NaN), without Gymnasium's terms.
         """
-        layout = self.layout
-        values = np.frombuffer(state, count=layout.info + 2, offset=layout.info_offset * 8)
-        status = float(values[-2])
+        status, reward = _tail.unpack_from(state, self._tail_at)
         if status >= UNSTABLE:
             return {
                 "unstable": True,
                 "mujoco_warnings": warning_names(status),
-                "unstable_reward": float(values[-1]),
+                "unstable_reward": reward,
             }
-        info = self._info.unpack(values, step=status != START)
+        info = self._info.unpack(state, self._info_at, step=status != START)
         info["unstable"] = False
         return info
 

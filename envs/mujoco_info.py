@@ -15,11 +15,9 @@ see :class:`~ns_pz.envs.mujoco_family.MujocoFamily` for what it does then.
 
 from __future__ import annotations
 
-import array
 import math
+import struct
 from collections.abc import Mapping
-from dataclasses import dataclass
-from functools import cached_property
 from typing import Any
 
 import mujoco
@@ -48,17 +46,29 @@ def warning_names(status: float) -> tuple[str, ...]:
     return tuple(w.name for bit, w in enumerate(UNSTABLE_WARNINGS) if bits >> bit & 1)
 
 
-@dataclass(frozen=True)
 class InfoLayout:
     """The keys and shapes of a task's reset and step ``info``, as Gymnasium gives them.
 
-    Attributes:
+    Args:
         reset: ``(key, shape)`` of each reset-info entry, in Gymnasium's order.
         step: ``(key, shape)`` of each step-info entry.
     """
 
-    reset: tuple[tuple[str, tuple[int, ...]], ...]
-    step: tuple[tuple[str, tuple[int, ...]], ...]
+    def __init__(
+        self,
+        reset: tuple[tuple[str, tuple[int, ...]], ...],
+        step: tuple[tuple[str, tuple[int, ...]], ...],
+    ) -> None:
+        self.reset, self.step = reset, step
+        self.size = max(_count(reset), _count(step))
+        """float64 entries the info takes in a state (the larger of the two)."""
+        self.scalars = all(shape == () for _, shape in reset + step)
+        """Whether every entry of both is a scalar (packed and read by one ``struct`` call)."""
+        self._keys = (tuple(key for key, _ in reset), tuple(key for key, _ in step))
+        # float64 values, then zero bytes up to size: one Struct per kind, reset first
+        self._structs = tuple(
+            struct.Struct(f"={_count(e)}d{8 * (self.size - _count(e))}x") for e in (reset, step)
+        )
 
     @classmethod
     def of(cls, reset_info: Mapping[str, Any], step_info: Mapping[str, Any]) -> InfoLayout:
@@ -69,52 +79,30 @@ class InfoLayout:
 
         return cls(shapes(reset_info), shapes(step_info))
 
-    @cached_property
-    def size(self) -> int:
-        """float64 entries the info takes in a state (the larger of the two)."""
-        return max(_count(self.reset), _count(self.step))
-
-    @cached_property
-    def scalars(self) -> bool:
-        """Whether every entry of both is a scalar (then packing is one ``array`` call)."""
-        return all(shape == () for _, shape in self.reset + self.step)
-
-    @cached_property
-    def _reset_keys(self) -> tuple[str, ...]:
-        return tuple(key for key, _ in self.reset)
-
-    @cached_property
-    def _step_keys(self) -> tuple[str, ...]:
-        return tuple(key for key, _ in self.step)
-
     def pack(self, info: Mapping[str, Any], step: bool) -> bytes:
         """The values of ``info`` (of the step or reset kind) as float64 bytes of :attr:`size`."""
-        count = _count(self.step if step else self.reset)
         if self.scalars:
-            values = array.array("d", info.values())
-        else:
-            values = array.array(
-                "d",
-                np.concatenate([np.ravel(np.asarray(v, dtype=np.float64)) for v in info.values()]),
-            )
-        values.extend(0.0 for _ in range(self.size - count))
-        return values.tobytes()
+            return self._structs[step].pack(*info.values())
+        values = [np.ravel(np.asarray(v, dtype=np.float64)) for v in info.values()]
+        return self._structs[step].pack(*np.concatenate(values).tolist())
 
-    def unpack(self, values: np.ndarray, step: bool) -> dict[str, Any]:
-        """The info dict from its float64 ``values`` (scalars as ``float``, arrays as copies)."""
-        entries = self.step if step else self.reset
-        if self.scalars:  # the common case: one conversion to Python floats
-            keys = self._step_keys if step else self._reset_keys
-            return dict(zip(keys, values.tolist(), strict=False))
+    def unpack(self, state: bytes, offset: int, step: bool) -> dict[str, Any]:
+        """The info dict whose values lie in ``state`` from byte ``offset`` on.
+
+        Scalars come back as ``float``, arrays as float64 arrays of their own.
+        """
+        values = self._structs[step].unpack_from(state, offset)
+        if self.scalars:  # the common case
+            return dict(zip(self._keys[step], values, strict=True))
         info: dict[str, Any] = {}
-        offset = 0
-        for key, shape in entries:
+        start = 0
+        for key, shape in self.step if step else self.reset:
             count = math.prod(shape)
             if shape == ():
-                info[key] = float(values[offset])
+                info[key] = values[start]
             else:
-                info[key] = values[offset : offset + count].reshape(shape).copy()
-            offset += count
+                info[key] = np.array(values[start : start + count]).reshape(shape)
+            start += count
         return info
 
 
