@@ -1,12 +1,17 @@
 """The eleven Gymnasium v5 MuJoCo tasks as ns_pz families, θ named as in NS-Gym.
 
-Each family is one table of knobs (θ field, kind, model element, Gymnasium's value) over
-:class:`~ns_pz.envs.mujoco_family.MujocoFamily`. Names follow NS-Gym's MuJoCo wrapper where it
-has the task (its ``ffeet_*`` are the ``ffoot`` body and joint, its InvertedDoublePendulum
-``floor_friction`` is the rail's, ``pole1_*`` / ``hinge1_*`` the first pole's); Walker2d, which
-NS-Gym lacks, and Swimmer's extra knobs are named after their bodies and joints the same way.
-Defaults are the compiled models' exact values (``tests/test_mujoco.py`` checks them), so
-default θ leaves each model as Gymnasium builds it.
+Each family is one table of knobs (θ field, kind, model element, Gymnasium's value, bounds; see
+:mod:`ns_pz.envs.mujoco_knobs`) over :class:`~ns_pz.envs.mujoco_family.MujocoFamily`. Names
+follow NS-Gym's MuJoCo wrapper where it has the knob (its ``ffeet_*`` are the ``ffoot`` body
+and joint, ``pole1_*`` / ``hinge1_*`` the first pole's); Walker2d, which NS-Gym lacks, and
+Swimmer's extra knobs are named after their bodies and joints the same way. Not as in NS-Gym:
+the pendulums' ``rail_friction`` is the slider joint's dry friction (NS-Gym's, a friction of the
+rail geom, acts on nothing: the cart touches no geom), so InvertedDoublePendulum's
+``floor_friction`` (the same rail geom in NS-Gym) is gone; ``slider_damping``,
+``gravity_tilt`` and ``actuator_gain`` are new. Defaults are the compiled models' exact values
+(``tests/test_mujoco.py`` checks them), so default θ leaves each model as Gymnasium builds it.
+Bounds are where each knob acts and the physics stays stable
+(``benchmarks/mujoco_stability.py``).
 """
 
 from __future__ import annotations
