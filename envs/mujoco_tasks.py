@@ -1,23 +1,30 @@
 """The eleven Gymnasium v5 MuJoCo tasks as ns_pz families, θ named as in NS-Gym.
 
-Each family is one table of knobs (θ field, kind, model element, Gymnasium's value) over
-:class:`~ns_pz.envs.mujoco_family.MujocoFamily`. Names follow NS-Gym's MuJoCo wrapper where it
-has the task (its ``ffeet_*`` are the ``ffoot`` body and joint, its InvertedDoublePendulum
-``floor_friction`` is the rail's, ``pole1_*`` / ``hinge1_*`` the first pole's); Walker2d, which
-NS-Gym lacks, and Swimmer's extra knobs are named after their bodies and joints the same way.
-Defaults are the compiled models' exact values (``tests/test_mujoco.py`` checks them), so
-default θ leaves each model as Gymnasium builds it.
+Each family is one table of knobs (θ field, kind, model element, Gymnasium's value, bounds; see
+:mod:`ns_pz.envs.mujoco_knobs`) over :class:`~ns_pz.envs.mujoco_family.MujocoFamily`. Names
+follow NS-Gym's MuJoCo wrapper where it has the knob (its ``ffeet_*`` are the ``ffoot`` body
+and joint, ``pole1_*`` / ``hinge1_*`` the first pole's); Walker2d, which NS-Gym lacks, and
+Swimmer's extra knobs are named after their bodies and joints the same way. Not as in NS-Gym:
+the pendulums' ``rail_friction`` is the slider joint's dry friction (NS-Gym's, a friction of the
+rail geom, acts on nothing: the cart touches no geom), so InvertedDoublePendulum's
+``floor_friction`` (the same rail geom in NS-Gym) is gone; ``slider_damping``,
+``gravity_tilt`` and ``actuator_gain`` are new. Defaults are the compiled models' exact values
+(``tests/test_mujoco.py`` checks them), so default θ leaves each model as Gymnasium builds it.
+Bounds are where each knob acts and the physics stays stable
+(``benchmarks/mujoco_stability.py``).
 """
 
 from __future__ import annotations
 
-from ns_pz.envs.mujoco_family import (
-    DAMPING,
-    FRICTION,
-    GRAVITY,
-    MASS,
-    Knob,
-    task_family,
+from ns_pz.envs.mujoco_family import task_family
+from ns_pz.envs.mujoco_knobs import (
+    damping,
+    friction,
+    frictionloss,
+    gear,
+    gravity,
+    mass,
+    tilt,
 )
 from ns_pz.envs.registry import MUJOCO_TASKS
 
@@ -27,123 +34,141 @@ TASKS = tuple(name for name, _, _ in MUJOCO_TASKS)
 """The task names; the family of ``name`` is ``{name}Family``, its θ ``{name}Params``."""
 
 _INVERTEDPENDULUM_KNOBS = (
-    Knob("gravity", GRAVITY, "", -9.81),
-    Knob("pole_mass", MASS, "pole", 5.018591641363306),
-    Knob("cart_mass", MASS, "cart", 10.47197551196598),
-    Knob("rail_friction", FRICTION, "rail", 1.0),
+    gravity(-9.81),
+    mass("pole_mass", "pole", 5.018591641363306),
+    mass("cart_mass", "cart", 10.47197551196598),
+    frictionloss("rail_friction", "slider", 50.0),
+    damping("slider_damping", "slider", 1.0, unit="N s/m"),
+    tilt(),
+    gear(),
 )
 
 _INVERTEDDOUBLEPENDULUM_KNOBS = (
-    Knob("gravity", GRAVITY, "", -9.81),
-    Knob("cart_mass", MASS, "cart", 10.47197551196598),
-    Knob("pole1_mass", MASS, "pole", 4.1987385815227585),
-    Knob("pole2_mass", MASS, "pole2", 4.1987385815227585),
-    Knob("floor_friction", FRICTION, "rail", 1.0),
-    Knob("slider_damping", DAMPING, "slider", 0.05),
-    Knob("hinge1_damping", DAMPING, "hinge", 0.05),
-    Knob("hinge2_damping", DAMPING, "hinge2", 0.05),
+    gravity(-9.81),
+    mass("cart_mass", "cart", 10.47197551196598),
+    mass("pole1_mass", "pole", 4.1987385815227585),
+    mass("pole2_mass", "pole2", 4.1987385815227585),
+    frictionloss("rail_friction", "slider", 50.0),
+    damping("slider_damping", "slider", 0.05, unit="N s/m"),
+    damping("hinge1_damping", "hinge", 0.05),
+    damping("hinge2_damping", "hinge2", 0.05),
+    tilt(),
+    gear(),
 )
 
 _REACHER_KNOBS = (
-    Knob("body0_mass", MASS, "body0", 0.03560471674068432),
-    Knob("body1_mass", MASS, "body1", 0.03560471674068432),
-    Knob("joint0_damping", DAMPING, "joint0", 1.0),
-    Knob("joint1_damping", DAMPING, "joint1", 1.0),
+    mass("body0_mass", "body0", 0.03560471674068432),
+    mass("body1_mass", "body1", 0.03560471674068432),
+    damping("joint0_damping", "joint0", 1.0),
+    damping("joint1_damping", "joint1", 1.0),
+    gear(),
 )
 
 _SWIMMER_KNOBS = (
-    Knob("torso_mass", MASS, "torso", 35.604716740684324),
-    Knob("body_mid_mass", MASS, "mid", 35.604716740684324),
-    Knob("body_back_mass", MASS, "back", 35.604716740684324),
-    Knob("motor1_rot_damping", DAMPING, "motor1_rot", 0.0),
-    Knob("motor2_rot_damping", DAMPING, "motor2_rot", 0.0),
+    mass("torso_mass", "torso", 35.604716740684324),
+    mass("body_mid_mass", "mid", 35.604716740684324),
+    mass("body_back_mass", "back", 35.604716740684324),
+    damping("motor1_rot_damping", "motor1_rot", 0.0),
+    damping("motor2_rot_damping", "motor2_rot", 0.0),
+    gear(),
 )
 
 _PUSHER_KNOBS = (
-    Knob("gravity", GRAVITY, "", 0.0),
-    Knob("r_shoulder_pan_link_mass", MASS, "r_shoulder_pan_link", 7.293521504574065),
-    Knob("r_shoulder_lift_link_mass", MASS, "r_shoulder_lift_link", 3.141592653589794),
-    Knob("r_upper_arm_link_mass", MASS, "r_upper_arm_link", 1.6286016316209488),
-    Knob("r_forearm_link_mass", MASS, "r_forearm_link", 0.8427322293254622),
-    Knob("r_shoulder_pan_joint_damping", DAMPING, "r_shoulder_pan_joint", 1.0),
-    Knob("r_shoulder_lift_joint_damping", DAMPING, "r_shoulder_lift_joint", 1.0),
-    Knob("r_elbow_flex_joint_damping", DAMPING, "r_elbow_flex_joint", 0.1),
+    gravity(0.0),
+    mass("r_shoulder_pan_link_mass", "r_shoulder_pan_link", 7.293521504574065),
+    mass("r_shoulder_lift_link_mass", "r_shoulder_lift_link", 3.141592653589794),
+    mass("r_upper_arm_link_mass", "r_upper_arm_link", 1.6286016316209488),
+    mass("r_forearm_link_mass", "r_forearm_link", 0.8427322293254622),
+    damping("r_shoulder_pan_joint_damping", "r_shoulder_pan_joint", 1.0),
+    damping("r_shoulder_lift_joint_damping", "r_shoulder_lift_joint", 1.0),
+    damping("r_elbow_flex_joint_damping", "r_elbow_flex_joint", 0.1),
+    gear(),
 )
 
 _HOPPER_KNOBS = (
-    Knob("gravity", GRAVITY, "", -9.81),
-    Knob("torso_mass", MASS, "torso", 3.6651914291880923),
-    Knob("thigh_mass", MASS, "thigh", 4.057890510886818),
-    Knob("leg_mass", MASS, "leg", 2.7813566959781637),
-    Knob("foot_mass", MASS, "foot", 5.315574769873931),
-    Knob("floor_friction", FRICTION, "floor", 1.0),
-    Knob("thigh_joint_damping", DAMPING, "thigh_joint", 1.0),
-    Knob("leg_joint_damping", DAMPING, "leg_joint", 1.0),
-    Knob("foot_joint_damping", DAMPING, "foot_joint", 1.0),
+    gravity(-9.81),
+    mass("torso_mass", "torso", 3.6651914291880923),
+    mass("thigh_mass", "thigh", 4.057890510886818),
+    mass("leg_mass", "leg", 2.7813566959781637),
+    mass("foot_mass", "foot", 5.315574769873931),
+    friction("floor_friction", "floor", 1.0),
+    damping("thigh_joint_damping", "thigh_joint", 1.0),
+    damping("leg_joint_damping", "leg_joint", 1.0),
+    damping("foot_joint_damping", "foot_joint", 1.0),
+    tilt(),
+    gear(),
 )
 
 _WALKER2D_KNOBS = (
-    Knob("gravity", GRAVITY, "", -9.81),
-    Knob("torso_mass", MASS, "torso", 3.6651914291880923),
-    Knob("thigh_mass", MASS, "thigh", 4.057890510886818),
-    Knob("leg_mass", MASS, "leg", 2.7813566959781637),
-    Knob("foot_mass", MASS, "foot", 3.1667253948185117),
-    Knob("thigh_left_mass", MASS, "thigh_left", 4.057890510886818),
-    Knob("leg_left_mass", MASS, "leg_left", 2.7813566959781637),
-    Knob("foot_left_mass", MASS, "foot_left", 3.1667253948185117),
-    Knob("floor_friction", FRICTION, "floor", 0.7),
-    Knob("thigh_joint_damping", DAMPING, "thigh_joint", 0.1),
-    Knob("leg_joint_damping", DAMPING, "leg_joint", 0.1),
-    Knob("foot_joint_damping", DAMPING, "foot_joint", 0.1),
-    Knob("thigh_left_joint_damping", DAMPING, "thigh_left_joint", 0.1),
-    Knob("leg_left_joint_damping", DAMPING, "leg_left_joint", 0.1),
-    Knob("foot_left_joint_damping", DAMPING, "foot_left_joint", 0.1),
+    gravity(-9.81),
+    mass("torso_mass", "torso", 3.6651914291880923),
+    mass("thigh_mass", "thigh", 4.057890510886818),
+    mass("leg_mass", "leg", 2.7813566959781637),
+    mass("foot_mass", "foot", 3.1667253948185117),
+    mass("thigh_left_mass", "thigh_left", 4.057890510886818),
+    mass("leg_left_mass", "leg_left", 2.7813566959781637),
+    mass("foot_left_mass", "foot_left", 3.1667253948185117),
+    friction("floor_friction", "floor", 0.7),
+    damping("thigh_joint_damping", "thigh_joint", 0.1),
+    damping("leg_joint_damping", "leg_joint", 0.1),
+    damping("foot_joint_damping", "foot_joint", 0.1),
+    damping("thigh_left_joint_damping", "thigh_left_joint", 0.1),
+    damping("leg_left_joint_damping", "leg_left_joint", 0.1),
+    damping("foot_left_joint_damping", "foot_left_joint", 0.1),
+    tilt(),
+    gear(),
 )
 
 _HALFCHEETAH_KNOBS = (
-    Knob("gravity", GRAVITY, "", -9.81),
-    Knob("torso_mass", MASS, "torso", 6.25020920502092),
-    Knob("bthigh_mass", MASS, "bthigh", 1.5435146443514645),
-    Knob("bshin_mass", MASS, "bshin", 1.5874476987447697),
-    Knob("bfoot_mass", MASS, "bfoot", 1.0953974895397491),
-    Knob("fthigh_mass", MASS, "fthigh", 1.4380753138075317),
-    Knob("fshin_mass", MASS, "fshin", 1.200836820083682),
-    Knob("ffeet_mass", MASS, "ffoot", 0.8845188284518829),
-    Knob("floor_friction", FRICTION, "floor", 0.4),
-    Knob("bthigh_damping", DAMPING, "bthigh", 6.0),
-    Knob("bshin_damping", DAMPING, "bshin", 4.5),
-    Knob("bfoot_damping", DAMPING, "bfoot", 3.0),
-    Knob("fthigh_damping", DAMPING, "fthigh", 4.5),
-    Knob("fshin_damping", DAMPING, "fshin", 3.0),
-    Knob("ffeet_damping", DAMPING, "ffoot", 1.5),
+    gravity(-9.81),
+    mass("torso_mass", "torso", 6.25020920502092),
+    mass("bthigh_mass", "bthigh", 1.5435146443514645),
+    mass("bshin_mass", "bshin", 1.5874476987447697),
+    mass("bfoot_mass", "bfoot", 1.0953974895397491),
+    mass("fthigh_mass", "fthigh", 1.4380753138075317),
+    mass("fshin_mass", "fshin", 1.200836820083682),
+    mass("ffeet_mass", "ffoot", 0.8845188284518829),
+    friction("floor_friction", "floor", 0.4),
+    damping("bthigh_damping", "bthigh", 6.0),
+    damping("bshin_damping", "bshin", 4.5),
+    damping("bfoot_damping", "bfoot", 3.0),
+    damping("fthigh_damping", "fthigh", 4.5),
+    damping("fshin_damping", "fshin", 3.0),
+    damping("ffeet_damping", "ffoot", 1.5),
+    tilt(),
+    gear(),
 )
 
 _ANT_KNOBS = (
-    Knob("gravity", GRAVITY, "", -9.81),
-    Knob("torso_mass", MASS, "torso", 0.32724923474893675),
-    Knob("floor_friction", FRICTION, "floor", 1.0),
+    gravity(-9.81),
+    mass("torso_mass", "torso", 0.32724923474893675),
+    friction("floor_friction", "floor", 1.0),
+    tilt(),
+    gear(),
 )
 
 _HUMANOID_KNOBS = (
-    Knob("gravity", GRAVITY, "", -9.81),
-    Knob("torso_mass", MASS, "torso", 8.907462370478262),
-    Knob("lwaist_mass", MASS, "lwaist", 2.261946710584651),
-    Knob("pelvis_mass", MASS, "pelvis", 6.616194128460103),
-    Knob("right_thigh_mass", MASS, "right_thigh", 4.751750928806242),
-    Knob("left_thigh_mass", MASS, "left_thigh", 4.751750928806242),
-    Knob("right_shin_mass", MASS, "right_shin", 2.7556961671836424),
-    Knob("left_shin_mass", MASS, "left_shin", 2.7556961671836424),
-    Knob("right_foot_mass", MASS, "right_foot", 1.7671458676442586),
-    Knob("left_foot_mass", MASS, "left_foot", 1.7671458676442586),
-    Knob("right_upper_arm_mass", MASS, "right_upper_arm", 1.6610804848382084),
-    Knob("left_upper_arm_mass", MASS, "left_upper_arm", 1.6610804848382084),
-    Knob("right_lower_arm_mass", MASS, "right_lower_arm", 1.2295401928310803),
-    Knob("left_lower_arm_mass", MASS, "left_lower_arm", 1.2295401928310803),
-    Knob("floor_friction", FRICTION, "floor", 1.0),
-    Knob("right_knee_damping", DAMPING, "right_knee", 1.0),
-    Knob("left_knee_damping", DAMPING, "left_knee", 1.0),
-    Knob("right_elbow_damping", DAMPING, "right_elbow", 1.0),
-    Knob("left_elbow_damping", DAMPING, "left_elbow", 1.0),
+    gravity(-9.81),
+    mass("torso_mass", "torso", 8.907462370478262),
+    mass("lwaist_mass", "lwaist", 2.261946710584651),
+    mass("pelvis_mass", "pelvis", 6.616194128460103),
+    mass("right_thigh_mass", "right_thigh", 4.751750928806242),
+    mass("left_thigh_mass", "left_thigh", 4.751750928806242),
+    mass("right_shin_mass", "right_shin", 2.7556961671836424),
+    mass("left_shin_mass", "left_shin", 2.7556961671836424),
+    mass("right_foot_mass", "right_foot", 1.7671458676442586),
+    mass("left_foot_mass", "left_foot", 1.7671458676442586),
+    mass("right_upper_arm_mass", "right_upper_arm", 1.6610804848382084),
+    mass("left_upper_arm_mass", "left_upper_arm", 1.6610804848382084),
+    mass("right_lower_arm_mass", "right_lower_arm", 1.2295401928310803),
+    mass("left_lower_arm_mass", "left_lower_arm", 1.2295401928310803),
+    friction("floor_friction", "floor", 1.0),
+    damping("right_knee_damping", "right_knee", 1.0),
+    damping("left_knee_damping", "left_knee", 1.0),
+    damping("right_elbow_damping", "right_elbow", 1.0),
+    damping("left_elbow_damping", "left_elbow", 1.0),
+    tilt(),
+    gear(),
 )
 
 InvertedPendulumFamily = task_family(

@@ -133,6 +133,10 @@ def spec(env_id: str) -> NSEnvSpec:
     try:
         return _SPECS[env_id]
     except KeyError:
+        if env_id in MUJOCO_IDS:  # registered only with the extra, so it is missing
+            raise UnknownEnvironment(
+                f"{env_id} needs MuJoCo, which is not installed: pip install \"ns_pz[mujoco]\""
+            ) from None
         close = difflib.get_close_matches(env_id, _SPECS, n=3)
         hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""
         raise UnknownEnvironment(
@@ -189,8 +193,18 @@ def _split(kwargs: Mapping[str, Any], ns_names: set[str]) -> tuple[dict[str, Any
 
 
 def _register_mujoco() -> None:
-    """The MuJoCo tasks, when the ``mujoco`` extra is installed (found, not imported)."""
+    """The MuJoCo tasks, when the ``mujoco`` extra is installed (found, not imported).
+
+    Without it, Gymnasium still knows the ids, so that ``gymnasium.make`` reaches
+    :func:`spec`, whose error names the extra to install.
+    """
     if importlib.util.find_spec("mujoco") is None:
+        for env_id in MUJOCO_IDS:
+            gymnasium.register(
+                id=env_id,
+                entry_point="ns_pz.envs.registry:_gymnasium_entry_point",
+                kwargs={"env_id": env_id},
+            )
         return
     for name, limit, theta in MUJOCO_TASKS:
         # Gymnasium's {name}-v5 with NS-Gym's knobs as θ.
@@ -294,16 +308,17 @@ gymnasium.register(
 )
 # Gymnasium's v5 MuJoCo tasks (name, time limit, θ), registered only with the mujoco extra.
 MUJOCO_TASKS: tuple[tuple[str, int, str], ...] = (
-    ("InvertedPendulum", 1000, "gravity, pole_mass, cart_mass, rail_friction"),
-    ("InvertedDoublePendulum", 1000, "gravity, cart/pole1/pole2 masses, rail friction, damping"),
-    ("Reacher", 50, "body0/body1 masses, joint0/joint1 damping"),
-    ("Swimmer", 1000, "torso/mid/back masses, rotor damping"),
-    ("Pusher", 100, "gravity, four arm-link masses, three joint dampings"),
-    ("Hopper", 1000, "gravity, torso/thigh/leg/foot masses, floor_friction, joint damping"),
-    ("Walker2d", 1000, "gravity, seven body masses, floor_friction, six joint dampings"),
-    ("HalfCheetah", 1000, "gravity, seven body masses, floor_friction, six joint dampings"),
-    ("Ant", 1000, "gravity, torso_mass, floor_friction"),
-    ("Humanoid", 1000, "gravity, thirteen body masses, floor_friction, knee/elbow damping"),
-    ("HumanoidStandup", 1000, "gravity, thirteen body masses, floor_friction, knee/elbow damping"),
+    ("InvertedPendulum", 1000, "gravity, pole/cart masses, rail friction and damping, tilt, gain"),
+    ("InvertedDoublePendulum", 1000, "gravity, three masses, rail friction, damping, tilt, gain"),
+    ("Reacher", 50, "body0/body1 masses, joint0/joint1 damping, actuator_gain"),
+    ("Swimmer", 1000, "torso/mid/back masses, rotor damping, actuator_gain"),
+    ("Pusher", 100, "gravity, four arm-link masses, three joint dampings, actuator_gain"),
+    ("Hopper", 1000, "gravity, four masses, floor_friction, joint damping, tilt, gain"),
+    ("Walker2d", 1000, "gravity, seven masses, floor_friction, six dampings, tilt, gain"),
+    ("HalfCheetah", 1000, "gravity, seven masses, floor_friction, six dampings, tilt, gain"),
+    ("Ant", 1000, "gravity, torso_mass, floor_friction, tilt, gain"),
+    ("Humanoid", 1000, "gravity, thirteen masses, floor_friction, knee/elbow damping, tilt, gain"),
+    ("HumanoidStandup", 1000, "gravity, 13 masses, floor_friction, knee/elbow damping, tilt, gain"),
 )
+MUJOCO_IDS = frozenset(f"ns_pz/{name}-v0" for name, _, _ in MUJOCO_TASKS)
 _register_mujoco()

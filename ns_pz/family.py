@@ -41,6 +41,8 @@ class EnvFamily(ABC):
     """Render modes the family can draw (see :mod:`ns_pz.rendering`)."""
     render_fps: ClassVar[int] = 30
     """Frames per second of ``"human"`` rendering and of recorded videos."""
+    has_info: ClassVar[bool] = False
+    """Whether :meth:`info` says anything (the views skip the call otherwise)."""
     _int_actions: tuple[Any, int, int]
     """The action space and the ints it holds (set by :meth:`check_action` on first use; a
     space is replaced, never changed in place, as Gymnasium's spaces are treated)."""
@@ -70,6 +72,13 @@ class EnvFamily(ABC):
     @abstractmethod
     def observe(self, state: State) -> Any:
         """The observation of ``state``, an element of :attr:`observation_space`."""
+
+    def info(self, state: State) -> dict[str, Any]:
+        """The base environment's ``info`` for ``state``, a new dict.
+
+        Families with :attr:`has_info` keep it in the state (the MuJoCo tasks' reward terms).
+        """
+        return {}
 
     def check_action(self, action: Any) -> Any:
         """Return ``action`` in canonical form, or raise ``ValueError`` if it is not allowed."""

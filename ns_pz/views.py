@@ -2,7 +2,8 @@
 
 Nature and the monitor are fixed policies inside the environment; the decision agent is the
 Gymnasium agent. Observations are the flat ``Dict`` described in :mod:`ns_pz.observations`; the
-reward is the base environment's, a plain float. ``info`` is ``{}``: the true θ is never given
+reward is the base environment's, a plain float. ``info`` is the base environment's (``{}`` but
+for families that keep one, such as the MuJoCo tasks' reward terms): the true θ is never given
 to an agent unless asked for, through :meth:`NSGymEnv.ground_truth` or
 ``ground_truth_info=True`` (which adds ``info["theta"]``, a dict of the θ the transition just
 made ran under; θ_0 at reset).
@@ -57,10 +58,15 @@ class ProcessEnv:
         self._renderer.close()
 
     def _info(self) -> dict[str, Any]:
-        """``info``: the θ of the last transition if ``ground_truth_info`` asked for it."""
+        """``info``: the base environment's, and the θ of the last transition if asked for.
+
+        The θ comes with ``ground_truth_info=True`` only.
+        """
+        process = self._process
+        info = process.family.info(process.state) if process.family.has_info else {}
         if self._ground_truth_info:
-            return {"theta": self._process.last_theta.as_dict()}
-        return {}
+            info["theta"] = process.last_theta.as_dict()
+        return info
 
 
 class NSGymEnv(ProcessEnv, gym.Env[dict[str, Any], Any]):

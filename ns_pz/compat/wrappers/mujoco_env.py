@@ -13,7 +13,16 @@ those of every ``ns_pz.compat`` wrapper:
 * planning envs are the core's planning copies: a save of the MuJoCo state, not a new
   ``gymnasium.make`` per copy;
 * other model edits made by hand before wrapping (a geom size, a joint range) are not carried
-  over: only θ's fields are read from the model.
+  over: only θ's fields are read from the model;
+* masses change without their inertia, as in NS-Gym (the core's families scale the inertia
+  with the mass by default: ``scale_inertia=True``);
+* ``floor_friction`` scales every geom's friction with the floor's, so that lowering it acts
+  (MuJoCo gives a contact the larger coefficient of its two geoms); NS-Gym sets the floor's
+  alone. The pendulums' ``rail_friction`` is the slider joint's dry friction in N (default 0):
+  NS-Gym's (the rail geom's friction) has no effect, since the cart touches nothing, and
+  InvertedDoublePendulum's ``floor_friction`` (the same rail geom) is gone for the same reason;
+* θ has knobs NS-Gym lacks: ``gravity_tilt``, ``actuator_gain`` and the pendulums'
+  ``slider_damping``.
 """
 
 from __future__ import annotations
@@ -66,10 +75,6 @@ class MujocoWrapper(ScalarWrapper):
     def _family_and_params(
         self, env: gym.Env[Any, Any], binding: Binding, settings: dict[str, Any]
     ) -> tuple[EnvFamily, Params]:
-        family: MujocoFamily = binding.family_class()(**settings)  # type: ignore[assignment]
-        model = env.unwrapped.model  # type: ignore[attr-defined]
-        values = {}
-        for knob in family.knobs:
-            array, index = knob.slot(model)
-            values[knob.name] = float(array[index])
-        return family, family.params_cls.from_mapping(values)
+        family_class: type[MujocoFamily] = binding.family_class()  # type: ignore[assignment]
+        family = family_class(scale_inertia=False, **settings)  # masses alone, as NS-Gym
+        return family, family.params_of_model(env.unwrapped.model)  # type: ignore[attr-defined]
