@@ -37,7 +37,14 @@ from ns_pz.nature.randomised import ThetaSet
 from ns_pz.params import Params
 from ns_pz.seat_policies import check_policy
 
-NOMINAL, GRID, NATURES, ADVERSARY = "nominal", "grid", "nature", "adversary"
+NOMINAL = "nominal"
+"""The group (and row) of the condition θ_0 with the configured nature."""
+GRID = "grid"
+"""The group (and row) of the θ grid's members."""
+NATURES = "nature"
+"""The group of the suite's natures (each a row of its own label)."""
+ADVERSARY = "adversary"
+"""The group (and row) of the strongest freshly trained adversary."""
 
 SELECTION_SEED_OFFSET = 1_000_000
 """Selection episodes of trained adversaries use seeds from ``seed + SELECTION_SEED_OFFSET``."""
