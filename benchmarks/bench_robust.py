@@ -1,7 +1,9 @@
 """Which way of training gives a robust agent? Plain PPO, domain randomisation, RARL, RARL+pool.
 
-Each method trains a PPO agent for the same number of agent steps, from each of several
-training seeds:
+Two tasks (``--task``): CartPole (nature moves the pole's length and mass) and MuJoCo's
+InvertedPendulum (nature tilts gravity and adds dry friction to the cart's rail), both cut at
+200 steps. Each method trains a PPO agent for the same number of agent steps, from each of
+several training seeds:
 
 * ``plain``: on θ_0, stationary;
 * ``dr``: under domain randomisation (:class:`ns_pz.nature.DomainRandomisation`) over a
@@ -21,6 +23,7 @@ Run from the repository root with the ``learn`` extra (each (method, seed) job i
 ends; ``--resume`` skips saved ones)::
 
     python benchmarks/bench_robust.py --out /tmp/bench_robust --workers 2
+    python benchmarks/bench_robust.py --task invertedpendulum --out /tmp/robust_ip --workers 2
     python benchmarks/bench_robust.py --quick --out /tmp/bench_robust_quick   # a smoke run
     python benchmarks/bench_robust.py --tabular --out /tmp/x --workers 2  # the calibration
     python benchmarks/bench_robust.py --throughput 16384 --out /tmp/x       # n_envs speed
@@ -46,7 +49,6 @@ from typing import Any
 
 import numpy as np
 
-CARTPOLE = "ns_pz/CartPole-v0"
 METHODS = ("plain", "dr", "rarl", "rarl-pool")
 STATISTICS = ("nominal", "grid mean", "grid worst", "suite", "adversary")
 
@@ -60,28 +62,35 @@ class Budget:
     eval_episodes: int
     adversary_trials: int
     adversary_steps: int
+
+
+QUICK = Budget(agent_steps=1024, rounds=2, eval_episodes=2, adversary_trials=1, adversary_steps=512)
+
+
+@dataclass(frozen=True)
+class Task:
+    """One environment of the benchmark: what every method trains in and is scored on.
+
+    The callables are module-level functions, so a task travels to worker processes by name.
+    """
+
+    env_id: str
+    horizon: int
+    constraints: Callable[[], Any]
+    """Nature's limits, in training (RARL) and in every scored condition."""
+    training_box: Callable[[], Any]
+    """Domain randomisation's training distribution (the grid reaches beyond it)."""
+    suite: Callable[[], dict[str, Any]]
+    """Scripted natures every agent meets."""
     grid: dict[str, list[float]]
+    """θ_0 values scored, the product of the per-parameter lists."""
+    quick_grid: dict[str, list[float]]
+    hyperparameters: dict[str, Any]
+    """PPO's settings, for the agent and for every nature."""
+    full: Budget
 
 
-FULL = Budget(
-    agent_steps=32_000,
-    rounds=4,
-    eval_episodes=8,
-    adversary_trials=2,
-    adversary_steps=8_000,
-    grid={"length": [0.25, 0.75, 1.5], "masspole": [0.05, 0.2, 0.5]},
-)
-QUICK = Budget(
-    agent_steps=1024,
-    rounds=2,
-    eval_episodes=2,
-    adversary_trials=1,
-    adversary_steps=512,
-    grid={"length": [0.5, 1.5], "masspole": [0.1]},
-)
-
-
-def constraints() -> Any:
+def cartpole_constraints() -> Any:
     """Nature may move the pole's length and mass, within a per-step bound and a budget.
 
     The budget keeps the pole at least 0.2 long: with more, a nature learns to shrink it to
@@ -99,20 +108,15 @@ def constraints() -> Any:
     )
 
 
-def env_kwargs() -> dict[str, Any]:
-    """The environment every method trains and is scored in."""
-    return {"max_episode_steps": 200, "constraints": constraints()}
-
-
-def training_box() -> Any:
-    """Domain randomisation's training distribution (the grid reaches beyond it)."""
+def cartpole_box() -> Any:
+    """CartPole's domain randomisation: length and pole mass, uniform."""
     from ns_pz.nature import DomainRandomisation, Uniform
 
     return DomainRandomisation({"length": Uniform(0.25, 1.5), "masspole": Uniform(0.05, 0.3)})
 
 
-def suite() -> dict[str, Any]:
-    """Scripted natures every agent meets."""
+def cartpole_suite() -> dict[str, Any]:
+    """CartPole's scripted natures."""
     from ns_pz.nature import (
         ContinuousScheduler,
         IncrementUpdate,
@@ -134,12 +138,66 @@ def suite() -> dict[str, Any]:
     }
 
 
-def ppo(steps: int) -> Any:
-    """PPO settings for CartPole (RL Zoo's, 8 environments, 10 epochs instead of 20)."""
-    from ns_pz.learning import TrainArgs
+def pendulum_constraints() -> Any:
+    """Nature may tilt gravity and add dry friction to the cart's rail, and nothing else.
 
-    return TrainArgs(
-        total_timesteps=steps,
+    These are the two knobs that hurt a PPO controller trained on θ_0 (measured over each
+    knob's range: pole mass from 1.1 to 25 and slider damping up to 10 left it at 200 of 200
+    steps; a tilt of 0.1 rad cut it to 56–68 steps, 50 N of rail friction to 74). Tilt moves by
+    at most 0.01 rad a step and 0.1 rad in all; friction by 1 N a step and 15 N in all.
+    """
+    from ns_pz.nature import NatureConstraints
+
+    moves = {"gravity_tilt": (0.01, 0.1), "rail_friction": (1.0, 15.0)}
+    return NatureConstraints(
+        movable=tuple(moves),
+        lipschitz={name: step for name, (step, _) in moves.items()},
+        budget={name: total for name, (_, total) in moves.items()},
+    )
+
+
+def pendulum_box() -> Any:
+    """InvertedPendulum's domain randomisation: tilt and rail friction, uniform."""
+    from ns_pz.nature import DomainRandomisation, Uniform
+
+    return DomainRandomisation(
+        {"gravity_tilt": Uniform(-0.1, 0.1), "rail_friction": Uniform(0.0, 15.0)}
+    )
+
+
+def pendulum_suite() -> dict[str, Any]:
+    """InvertedPendulum's scripted natures (held to the same constraints as RARL's)."""
+    from ns_pz.nature import (
+        ContinuousScheduler,
+        IncrementUpdate,
+        PeriodicScheduler,
+        RandomWalk,
+        ScriptedNature,
+    )
+
+    return {
+        "tilt drifts": ScriptedNature(
+            {"gravity_tilt": IncrementUpdate(ContinuousScheduler(start=1), k=0.001)}
+        ),
+        "friction jumps": ScriptedNature(
+            {"rail_friction": IncrementUpdate(PeriodicScheduler(period=50, start=1), k=5.0)}
+        ),
+        "tilt random walk": ScriptedNature(
+            {"gravity_tilt": RandomWalk(ContinuousScheduler(start=1), sigma=0.005)}
+        ),
+    }
+
+
+TASKS = {
+    "cartpole": Task(
+        env_id="ns_pz/CartPole-v0",
+        horizon=200,
+        constraints=cartpole_constraints,
+        training_box=cartpole_box,
+        suite=cartpole_suite,
+        grid={"length": [0.25, 0.75, 1.5], "masspole": [0.05, 0.2, 0.5]},
+        quick_grid={"length": [0.5, 1.5], "masspole": [0.1]},
+        # RL Zoo's CartPole settings, 8 environments, 10 epochs instead of 20
         hyperparameters={
             "n_steps": 32,
             "batch_size": 256,
@@ -149,26 +207,71 @@ def ppo(steps: int) -> Any:
             "learning_rate": 1e-3,
             "ent_coef": 0.0,
         },
-    )
+        full=Budget(
+            agent_steps=32_000,
+            rounds=4,
+            eval_episodes=8,
+            adversary_trials=2,
+            adversary_steps=8_000,
+        ),
+    ),
+    "invertedpendulum": Task(
+        env_id="ns_pz/InvertedPendulum-v0",
+        horizon=200,
+        constraints=pendulum_constraints,
+        training_box=pendulum_box,
+        suite=pendulum_suite,
+        grid={"gravity_tilt": [-0.15, 0.0, 0.15], "rail_friction": [0.0, 15.0, 30.0]},
+        quick_grid={"gravity_tilt": [-0.1, 0.1], "rail_friction": [5.0]},
+        # SB3's PPO defaults but for 8 environments of 128 steps a rollout: 64k steps bring
+        # a θ_0 agent to 200 of 200 steps (a first trial: 32k steps gave 94)
+        hyperparameters={
+            "n_steps": 128,
+            "batch_size": 256,
+            "n_epochs": 10,
+            "learning_rate": 3e-4,
+            "gamma": 0.99,
+        },
+        full=Budget(
+            agent_steps=64_000,
+            rounds=4,
+            eval_episodes=8,
+            adversary_trials=2,
+            adversary_steps=16_000,
+        ),
+    ),
+}
 
 
-def train_agent(method: str, seed: int, budget: Budget) -> Any:
+def env_kwargs(task: Task) -> dict[str, Any]:
+    """The environment every method trains and is scored in."""
+    return {"max_episode_steps": task.horizon, "constraints": task.constraints()}
+
+
+def ppo(task: Task, steps: int) -> Any:
+    """PPO with the task's settings for ``steps`` steps."""
+    from ns_pz.learning import TrainArgs
+
+    return TrainArgs(total_timesteps=steps, hyperparameters=task.hyperparameters)
+
+
+def train_agent(task: Task, method: str, seed: int, budget: Budget) -> Any:
     """The final agent of ``method`` from training seed ``seed``."""
     from ns_pz.learning import make_seat_env, rarl, train
     from ns_pz.learning.seats import single_agent
 
-    kwargs = env_kwargs()
+    kwargs = env_kwargs(task)
     if method in ("plain", "dr"):
         if method == "dr":
-            kwargs["nature"] = training_box()
-        env = make_seat_env(lambda: single_agent(CARTPOLE, "agent", **kwargs), n_envs=8)
-        return train(env, ppo(budget.agent_steps), seed)
+            kwargs["nature"] = task.training_box()
+        env = make_seat_env(lambda: single_agent(task.env_id, "agent", **kwargs), n_envs=8)
+        return train(env, ppo(task, budget.agent_steps), seed)
     per_round = budget.agent_steps // budget.rounds
     result = rarl(
-        CARTPOLE,
+        task.env_id,
         rounds=budget.rounds,
-        agent_args=ppo(per_round),
-        nature_args=ppo(per_round),
+        agent_args=ppo(task, per_round),
+        nature_args=ppo(task, per_round),
         seed=seed,
         population=3 if method == "rarl-pool" else None,
         n_envs=8,
@@ -177,32 +280,35 @@ def train_agent(method: str, seed: int, budget: Budget) -> Any:
     return result.agent
 
 
-def job(method: str, seed: int, budget: Budget, out: Path) -> dict[str, Any]:
+def job(task_name: str, method: str, seed: int, quick: bool, out: Path) -> dict[str, Any]:
     """Train and score one agent; save and return its scores."""
     import torch
 
     torch.set_num_threads(1)
     from ns_pz.learning import AdversarySearch, evaluate_robustness
 
+    task = TASKS[task_name]
+    budget = QUICK if quick else task.full
     started = time.perf_counter()
-    agent = train_agent(method, seed, budget)
+    cpu_started = time.process_time()
+    agent = train_agent(task, method, seed, budget)
     trained = time.perf_counter() - started
     report = evaluate_robustness(
         agent,
-        CARTPOLE,
-        grid=budget.grid,
-        natures=suite(),
+        task.env_id,
+        grid=task.quick_grid if quick else task.grid,
+        natures=task.suite(),
         adversaries=AdversarySearch(
             trials=budget.adversary_trials,
-            args=ppo(budget.adversary_steps),
+            args=ppo(task, budget.adversary_steps),
             selection_episodes=max(2, budget.eval_episodes // 2),
             n_envs=8,
         ),
         episodes=budget.eval_episodes,
         seed=100_000,
-        **env_kwargs(),
+        **env_kwargs(task),
     )
-    suite_means = [report.row(label).mean.value for label in suite()]
+    suite_means = [report.row(label).mean.value for label in task.suite()]
     scores = {
         "nominal": report.row("nominal").mean.value,
         "grid mean": report.row("grid").mean.value,
@@ -211,11 +317,13 @@ def job(method: str, seed: int, budget: Budget, out: Path) -> dict[str, Any]:
         "adversary": report.row("adversary").mean.value,
     }
     record = {
+        "task": task_name,
         "method": method,
         "seed": seed,
         "scores": scores,
         "train_seconds": trained,
         "total_seconds": time.perf_counter() - started,
+        "cpu_seconds": time.process_time() - cpu_started,
         "report": report.to_dict(),
     }
     path = out / f"{method}_{seed}.json"
@@ -224,12 +332,16 @@ def job(method: str, seed: int, budget: Budget, out: Path) -> dict[str, Any]:
 
 
 def table(records: list[dict[str, Any]]) -> str:
-    """IQM over seeds [95 % bootstrap interval] per method and statistic."""
+    """IQM over seeds [95 % bootstrap interval] per method and statistic, and training time.
+
+    The last column is the median wall time of training one agent (the runs' load varies, so
+    it is a rough cost, not a speed measurement).
+    """
     from ns_pz.learning import aggregate_runs
 
     lines = [
-        "| method | seeds | " + " | ".join(STATISTICS) + " |",
-        "|---|---|" + "---|" * len(STATISTICS),
+        "| method | seeds | " + " | ".join(STATISTICS) + " | training s |",
+        "|---|---|" + "---|" * (len(STATISTICS) + 1),
     ]
     for method in METHODS:
         runs = [r for r in records if r["method"] == method]
@@ -239,6 +351,7 @@ def table(records: list[dict[str, Any]]) -> str:
         for name in STATISTICS:
             estimate = aggregate_runs([r["scores"][name] for r in runs])
             cells.append(f"{estimate.value:.1f} [{estimate.low:.1f}, {estimate.high:.1f}]")
+        cells.append(f"{np.median([r['train_seconds'] for r in runs]):.0f}")
         lines.append(f"| {method} | {len(runs)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -369,6 +482,7 @@ def throughput(steps: int) -> str:
     torch.set_num_threads(1)
     from ns_pz.learning import TrainArgs, train_adversary
 
+    task = TASKS["cartpole"]
     lines = ["| environments | steps/s | seconds |", "|---|---|---|"]
     for n_envs, vec_env in ((1, "dummy"), (8, "dummy"), (8, "subproc")):
         args = TrainArgs(
@@ -376,7 +490,7 @@ def throughput(steps: int) -> str:
         )
         started = time.perf_counter()
         train_adversary(
-            CARTPOLE, balance, args=args, n_envs=n_envs, vec_env=vec_env, **env_kwargs()
+            task.env_id, balance, args=args, n_envs=n_envs, vec_env=vec_env, **env_kwargs(task)
         )
         seconds = time.perf_counter() - started
         label = "1" if n_envs == 1 else f"{n_envs}, {vec_env}"
@@ -388,6 +502,7 @@ def main(argv: list[str] | None = None) -> None:
     """Run the jobs (in parallel), then print the table."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--out", type=Path, required=True, help="folder of the per-job JSON")
+    parser.add_argument("--task", choices=sorted(TASKS), default="cartpole")
     parser.add_argument("--seeds", type=int, default=5, help="training seeds per method")
     parser.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
@@ -412,7 +527,6 @@ def main(argv: list[str] | None = None) -> None:
     if args.tabular:
         print(tabular(args.seeds, args.episodes, args.workers))
         return
-    budget = QUICK if args.quick else FULL
     args.out.mkdir(parents=True, exist_ok=True)
     records = []
     todo = []
@@ -420,13 +534,16 @@ def main(argv: list[str] | None = None) -> None:
         for method in args.methods:
             path = args.out / f"{method}_{seed}.json"
             if args.resume and path.exists():
-                records.append(json.loads(path.read_text()))
+                record = json.loads(path.read_text())
+                if record.get("task", "cartpole") != args.task:
+                    raise SystemExit(f"{path} is of task {record.get('task', 'cartpole')!r}")
+                records.append(record)
             else:
                 todo.append((method, seed))
     started = time.perf_counter()
     run: Callable[..., Any] = job
     with ProcessPoolExecutor(max_workers=max(1, args.workers)) as pool:
-        futures = {pool.submit(run, m, s, budget, args.out): (m, s) for m, s in todo}
+        futures = {pool.submit(run, args.task, m, s, args.quick, args.out): (m, s) for m, s in todo}
         for future in as_completed(futures):
             record = future.result()
             records.append(record)
