@@ -381,3 +381,35 @@ def test_rarl_with_a_population_meets_past_natures_and_scores_a_suite(tmp_path):
         run(population=0)
     with pytest.raises(TypeError, match="eval_suite\\['x'\\]=1"):
         run(eval_suite={"x": 1})
+
+
+def test_rarl_in_subprocesses_meets_frozen_opponents_and_reproduces():
+    """vec_env="subproc": each phase ships frozen opponents to subprocesses, seeded per phase.
+
+    The pool grows as in-process, the run reproduces from its seed, and an unknown vec_env is
+    refused before any training.
+    """
+    small = TrainArgs(total_timesteps=64, hyperparameters={"n_steps": 32, "batch_size": 32})
+
+    def run():
+        options = {"rounds": 2, "eval_episodes": 1, "population": 1}
+        return rarl(
+            CARTPOLE,
+            agent_args=small,
+            nature_args=small,
+            n_envs=2,
+            vec_env="subproc",
+            **options,
+            **POLE,
+        )
+
+    first, second = run(), run()
+    assert [entry.population for entry in first.log] == [1, 2]
+    assert first.agent.num_timesteps == first.nature.num_timesteps == 128
+    for model in ("agent", "nature"):
+        a = getattr(first, model).policy.state_dict()
+        b = getattr(second, model).policy.state_dict()
+        assert all((a[k] == b[k]).all() for k in a)
+    assert [e.agent_return_mean for e in first.log] == [e.agent_return_mean for e in second.log]
+    with pytest.raises(ValueError, match="vec_env='threads'"):
+        rarl(CARTPOLE, rounds=1, n_envs=2, vec_env="threads")

@@ -8,12 +8,16 @@ snapshots): fictitious-play style, so the agent cannot overfit to the latest adv
 and forget the earlier ones. Each round can also be scored against a fixed suite of natures
 (``eval_suite``), the evaluation callback of a robust-RL run.
 
+Each side's environments run in this process by default, where the opponent is the other
+side's live model. With ``vec_env="subproc"`` they run in subprocesses, one each: as a side only
+learns while the other is fixed, every phase ships a frozen copy of the opponent's policy (and
+of the pool's snapshots) to a fresh set of subprocesses, seeded per phase.
+
 Needs the ``learn`` extra (stable-baselines3 and torch).
 """
 
 from __future__ import annotations
 
-import copy
 import json
 import os
 import time
@@ -28,7 +32,13 @@ from stable_baselines3.common.base_class import BaseAlgorithm
 from ns_pz.checks import count, flag
 from ns_pz.learning.rollouts import episode_returns, mean_and_se
 from ns_pz.learning.seats import single_agent
-from ns_pz.learning.training import TrainArgs, make_model, make_seat_env
+from ns_pz.learning.training import (
+    VEC_ENVS,
+    NatureSeatFactory,
+    TrainArgs,
+    make_model,
+    make_seat_env,
+)
 from ns_pz.nature.interface import DEFAULT_STEP
 from ns_pz.nature.learned import PolicyNature
 from ns_pz.nature.policies import Nature, Proposal
@@ -143,6 +153,7 @@ def rarl(
     eval_suite: Mapping[str, Nature] | None = None,
     population: int | None = None,
     n_envs: int = 1,
+    vec_env: str = "dummy",
     deterministic_opponents: bool = True,
     nature_reward: str = "zero_sum",
     regret_reference: RegretReference | None = None,
@@ -173,8 +184,11 @@ def rarl(
         population: Pool size: the agent trains against natures drawn per episode from the
             current nature and the last ``population`` natures it met in earlier rounds (round
             1: the untrained one); ``None`` (default): the current nature only (plain RARL).
-        n_envs: Environments each side trains in at once (in this process: the opponent's
-            live model is shared).
+        n_envs: Environments each side trains in at once.
+        vec_env: ``"dummy"`` (in this process, the opponent's live model shared) or
+            ``"subproc"`` (a subprocess each, rebuilt every phase with a frozen copy of the
+            opponent; worth it where the cores outnumber the overhead of spawning them:
+            the seeds of the episodes then differ from ``"dummy"``'s, so the runs do too).
         deterministic_opponents: Whether each side meets the other's deterministic policy
             (default) or samples it from the episode's seed.
         nature_reward: Nature's payoff, ``"zero_sum"`` (RARL's) or another of
@@ -193,6 +207,9 @@ def rarl(
     rounds = count("rounds", rounds)
     eval_episodes = count("eval_episodes", eval_episodes)
     n_envs = count("n_envs", n_envs)
+    if vec_env not in VEC_ENVS:
+        raise ValueError(f"vec_env={vec_env!r}; allowed: {VEC_ENVS}")
+    subproc = vec_env == "subproc" and n_envs > 1
     deterministic = flag("deterministic_opponents", deterministic_opponents)
     if population is not None:
         population = count("population", population)
@@ -209,53 +226,63 @@ def rarl(
     current = PolicyNature(nature_seat, deterministic=deterministic, **conventions)
     pool = PopulationNature([current]) if population is not None else None
     agent_nature = pool if pool is not None else current
-    agent_env = make_seat_env(
-        lambda: single_agent(env_id, DECISION, {NATURE: agent_nature}, **env_kwargs), n_envs
-    )
-    nature_env = make_seat_env(
-        lambda: single_agent(
-            env_id,
-            NATURE,
-            {DECISION: agent_seat},
-            nature_reward=nature_reward,
-            nature_action=nature_action,
-            nature_observes_state=nature_observes_state,
-            default_step=default_step,
-            regret_reference=regret_reference,
-            deterministic=deterministic,
-            **env_kwargs,
-        ),
-        n_envs,
-    )
+    nature_options = {
+        "nature_reward": nature_reward,
+        "nature_action": nature_action,
+        "nature_observes_state": nature_observes_state,
+        "default_step": default_step,
+        "regret_reference": regret_reference,
+        "deterministic": deterministic,
+        **env_kwargs,
+    }
+    agent_env = make_seat_env(_AgentSide(env_id, agent_nature, env_kwargs), n_envs)
+    nature_env = make_seat_env(NatureSeatFactory(env_id, agent_seat, nature_options), n_envs)
     eval_seeds = range(seed + 10_000, seed + 10_000 + eval_episodes)
     evaluate = {"current": PolicyNature(nature_seat, **conventions), **suite}
     agent_model = agent_seat.model = make_model(agent_env, agent_args, seed)
     nature_model = nature_seat.model = make_model(nature_env, nature_args, seed + 1)
+    if subproc:  # the in-process envs only gave the models their spaces
+        agent_env.close()
+        nature_env.close()
     snapshots: list[Any] = []
     log: list[RoundLog] = []
     for index in range(1, rounds + 1):
         met = 1 if pool is None else len(pool.members)
         started = time.perf_counter()
+        if subproc:
+            frozen = PolicyNature(
+                _frozen(nature_model.policy), deterministic=deterministic, **conventions
+            )
+            met_now = frozen if pool is None else PopulationNature([frozen, *pool.members[1:]])
+            agent_env = _phase_env(
+                _AgentSide(env_id, met_now, env_kwargs), n_envs, seed + _PHASE_SEEDS * index
+            )
+            agent_model.set_env(agent_env)
         agent_model.learn(agent_args.total_timesteps, reset_num_timesteps=False)
+        if subproc:
+            agent_env.close()
         agent_seconds = time.perf_counter() - started
         # The nature the agent has just met joins the pool before it learns on: the agent's
         # next round meets it beside its successor (the current nature).
-        snapshot = copy.deepcopy(nature_model.policy)
-        snapshot.set_training_mode(False)
+        snapshot = _frozen(nature_model.policy)
         snapshots.append(snapshot)
         if pool is not None:
             pool.add(PolicyNature(snapshot, deterministic=deterministic, **conventions))
             if len(pool.members) > cast(int, population) + 1:
                 del pool.members[1]  # the oldest snapshot; the current nature stays first
         started = time.perf_counter()
+        if subproc:
+            factory = NatureSeatFactory(env_id, _frozen(agent_model.policy), nature_options)
+            nature_env = _phase_env(
+                factory, n_envs, seed + _PHASE_SEEDS * index + _PHASE_SEEDS // 2
+            )
+            nature_model.set_env(nature_env)
         nature_model.learn(nature_args.total_timesteps, reset_num_timesteps=False)
+        if subproc:
+            nature_env.close()
         nature_seconds = time.perf_counter() - started
         returns = {
-            label: episode_returns(
-                single_agent(env_id, DECISION, {NATURE: nature}, **env_kwargs),
-                agent_model,
-                eval_seeds,
-            )
+            label: _returns(_AgentSide(env_id, nature, env_kwargs)(), agent_model, eval_seeds)
             for label, nature in evaluate.items()
         }
         mean, se = mean_and_se(returns.pop("current"))
@@ -273,9 +300,53 @@ def rarl(
         log.append(entry)
         if out_dir is not None:
             _checkpoint(Path(out_dir), entry, agent_model, nature_model)
-    agent_env.close()
-    nature_env.close()
+    if not subproc:
+        agent_env.close()
+        nature_env.close()
     return RarlResult(agent_model, nature_model, log, snapshots)
+
+
+_PHASE_SEEDS = 100_000
+"""Spacing of the subprocess phases' episode seeds (clear of the evaluation seeds)."""
+
+
+class _AgentSide:
+    """Builds the agent's seat against ``nature``; picklable, so subprocesses can build it."""
+
+    def __init__(self, env_id: str, nature: Nature, env_kwargs: Mapping[str, Any]) -> None:
+        self.env_id = env_id
+        self.nature = nature
+        self.env_kwargs = dict(env_kwargs)
+
+    def __call__(self) -> Any:
+        return single_agent(self.env_id, DECISION, {NATURE: self.nature}, **self.env_kwargs)
+
+
+def _frozen(policy: Any) -> Any:
+    """A copy of an SB3 policy in evaluation mode: a pool snapshot, or an opponent to ship.
+
+    Built anew from the policy's constructor arguments and weights (as SB3's own ``save``
+    does): a deep copy fails right after a gradient step, when the policy still holds the
+    last action distribution, whose tensors are not graph leaves.
+    """
+    frozen = type(policy)(**policy._get_constructor_parameters())
+    frozen.load_state_dict(policy.state_dict())
+    frozen.set_training_mode(False)
+    return frozen
+
+
+def _phase_env(factory: Any, n_envs: int, seed: int) -> Any:
+    """``n_envs`` subprocesses of ``factory``'s seat, whose next reset uses ``seed + i``."""
+    env = make_seat_env(factory, n_envs, vec_env="subproc")
+    env.seed(seed)
+    return env
+
+
+def _returns(env: Any, agent: BaseAlgorithm, seeds: range) -> list[float]:
+    try:
+        return episode_returns(env, agent, seeds)
+    finally:
+        env.close()
 
 
 class _Seat:
