@@ -30,11 +30,12 @@ ends; ``--resume`` skips saved ones)::
 
 The calibration (``--tabular``): on FrozenLake, where nature's exact best response to a fixed
 agent is computable (:func:`ns_pz.agents.exact.nature_best_response`), each way of training a
-PPO adversary is scored by the fraction of the exact achievable harm it finds. The learned
-nature moves the whole slip vector, the exact one only along the line of step 0.1, so a
-fraction above 1 is possible. With a total slip budget of 0.6 the exact response leaves the
-agent nothing (0.0001 of 1.0) and every way of training found all of it; the default budget of
-0.1 leaves 0.283, so a partial find shows.
+PPO adversary is scored by the fraction of the exact achievable harm it finds. Both natures move
+the whole slip vector within the same limits (0.1 a step, ``--lake-budget`` in all, in total
+variation); the exact one chooses among a lattice of step 0.05 that holds every vertex of those
+limits. With a budget of 0.1 or more the exact response leaves the agent almost nothing (0.002
+of 1.0) and every way of training found nearly all of it; the default budget of 0.05 leaves
+0.114, so a partial find shows.
 """
 
 from __future__ import annotations
@@ -381,17 +382,34 @@ def lake_setting(budget: float) -> tuple[dict[str, Any], Any]:
     return kwargs, limits
 
 
-def lake_agent_and_values(budget: float) -> tuple[Any, float, float]:
-    """The θ_0-optimal agent (a fixed time-indexed policy) and its exact values.
+LAKE_STEP = 0.05
+"""Spacing of the slip vectors nature's exact best response chooses from."""
 
-    Its value when nothing changes, and under nature's exact best response on the slip line
-    of step 0.1 (:func:`ns_pz.agents.exact.nature_best_response`), against this very policy.
+
+def lake_agent() -> Any:
+    """The θ_0-optimal agent: a fixed time-indexed policy, blind to changes."""
+    from ns_pz.agents.exact import PolicyAgent, oracle_solution
+    from ns_pz.envs.registry import make_gym
+
+    kwargs, _ = lake_setting(1.0)
+    process = make_gym(LAKE, **kwargs).unwrapped.process
+    solution = oracle_solution(process.family, [process.base_theta0] * LAKE_HORIZON, 1.0)
+    return PolicyAgent(solution.policy, name="θ_0-optimal")
+
+
+def lake_values(budget: float) -> tuple[float, float]:
+    """The agent's exact value when nothing changes, and under nature's exact best response.
+
+    Nature's exact response chooses among every slip vector of the simplex on a lattice of
+    step :data:`LAKE_STEP` (231 points), the moves held to the same total-variation limits as
+    the learned nature's, which moves the vector continuously: the lattice holds every vertex
+    of a move's limits, so the exact response is (up to the lattice) the best any nature can
+    do, and a learned one finds a fraction of its harm.
     """
     from ns_pz.agents.exact import (
-        PolicyAgent,
         nature_best_response,
+        nature_grid,
         oracle_solution,
-        slip_line_grid,
         start_value,
     )
     from ns_pz.envs.registry import make_gym
@@ -402,10 +420,15 @@ def lake_agent_and_values(budget: float) -> tuple[Any, float, float]:
     theta0 = process.base_theta0
     solution = oracle_solution(process.family, [theta0] * LAKE_HORIZON, 1.0)
     static = start_value(process.family, solution.values)
-    grid = slip_line_grid(theta0, 0.1, limits)
+    n = round(1 / LAKE_STEP)
+    simplex = [
+        theta0.replace(slip=(i * LAKE_STEP, j * LAKE_STEP, (n - i - j) * LAKE_STEP))
+        for i in range(n + 1)
+        for j in range(n + 1 - i)
+    ]
+    grid = nature_grid(simplex, theta0, limits, budget_unit=LAKE_STEP)
     response = nature_best_response(env, solution.policy, grid, LAKE_HORIZON)
-    agent = PolicyAgent(solution.policy, name="θ_0-optimal")
-    return agent, float(static), float(response.value)
+    return float(static), float(response.value)
 
 
 def tabular_job(way: str, seed: int, episodes: int, budget: float) -> dict[str, Any]:
@@ -428,7 +451,7 @@ def tabular_job(way: str, seed: int, episodes: int, budget: float) -> dict[str, 
             "learning_rate": 3e-3,
         },
     )
-    agent, _, _ = lake_agent_and_values(budget)
+    agent = lake_agent()
     started = time.perf_counter()
     model = train_adversary(
         LAKE, agent, args=args, seed=seed, nature_observes_state=True, **options, **kwargs
@@ -445,7 +468,7 @@ def tabular(seeds: int, episodes: int, workers: int, budget: float) -> str:
     """The fraction of nature's exact achievable harm each way of training finds."""
     from ns_pz.learning import aggregate_runs
 
-    _, static, best = lake_agent_and_values(budget)
+    static, best = lake_values(budget)
     with ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
         futures = [
             pool.submit(tabular_job, w, s, episodes, budget) for w in WAYS for s in range(seeds)
@@ -453,8 +476,8 @@ def tabular(seeds: int, episodes: int, workers: int, budget: float) -> str:
         records = [f.result() for f in futures]
     lines = [
         f"FrozenLake, the θ_0-optimal agent at none: exact value {static:.3f} when nothing "
-        f"changes, {best:.4f} under nature's exact best response (slip line, step 0.1; "
-        f"budget {budget:g})",
+        f"changes, {best:.4f} under nature's exact best response (the slip simplex, step "
+        f"{LAKE_STEP:g}; budget {budget:g})",
         "",
         "| way of training | seeds | agent's return | fraction of the exact harm | "
         "training seconds |",
@@ -523,8 +546,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument(
         "--lake-budget",
         type=float,
-        default=0.1,
-        help="--tabular: nature's total slip budget (0.6 lets every adversary win outright)",
+        default=0.05,
+        help="--tabular: nature's total slip budget (0.1 already lets nature win outright)",
     )
     parser.add_argument(
         "--throughput",

@@ -40,6 +40,7 @@ from ns_pz.learning.statistics import Estimate, aggregate_runs, cvar, interquart
 _LAZY = {
     "TrainArgs": "training",
     "AdversaryTrials": "training",
+    "make_agent_vec_env": "training",
     "make_model": "training",
     "make_seat_env": "training",
     "train": "training",
@@ -75,6 +76,7 @@ __all__ = [
     "episode_returns",
     "evaluate_robustness",
     "interquartile_mean",
+    "make_agent_vec_env",
     "make_model",
     "make_seat_env",
     "mean_and_se",

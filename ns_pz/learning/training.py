@@ -3,7 +3,8 @@
 Needs the ``learn`` extra (stable-baselines3 and torch).
 
 * :func:`train` trains one SB3 model in an environment of :func:`ns_pz.single_agent` (or a
-  vector of them: :func:`make_seat_env`).
+  vector of them: :func:`make_seat_env`; for the decision agent, the batched core:
+  :func:`make_agent_vec_env`).
 * :func:`train_adversaries` trains several natures against a fixed decision agent, each from
   its own seed, and ranks them on selection episodes; :func:`train_adversary` returns the
   strongest. A single PPO run finds a strong adversary only some of the time (three seeds
@@ -132,6 +133,43 @@ def make_seat_env(
     cls = SubprocVecEnv if vec_env == "subproc" else DummyVecEnv
     kwargs = {"start_method": "spawn"} if vec_env == "subproc" else None
     return make_vec_env(make_env, n_envs=n_envs, vec_env_cls=cls, vec_env_kwargs=kwargs)
+
+
+def make_agent_vec_env(env_id: str, n_envs: int, **env_kwargs: Any) -> VecEnv:
+    """The decision agent's seat as ``n_envs`` environments stepped in one batched call.
+
+    The native vector env (:func:`ns_pz.envs.registry.make_vec`, same-step resets) as an SB3
+    ``VecEnv`` (:class:`~ns_pz.learning.sb3_vec.SB3VecEnv`), with SB3's episode statistics
+    (``VecMonitor``). For the agent against a nature that needs no live opponent (scripted,
+    domain-randomised, a trained :class:`~ns_pz.nature.PolicyNature`), it replaces
+    ``make_seat_env(lambda: single_agent(env_id, "agent", ...), n_envs)``: PPO on CartPole with
+    8 environments and domain randomisation took 4.5 CPU-seconds for 16,384 steps against 6.4
+    with SB3's ``DummyVecEnv`` of single envs. Where a family has no batched kernel the views
+    are stepped one by one inside, with the same result.
+
+    Args:
+        env_id: A registered id.
+        n_envs: Environments, >= 1; the model seeds the ``i``-th with ``seed + i``.
+        **env_kwargs: :func:`~ns_pz.envs.registry.make_vec`'s arguments (``nature``,
+            ``constraints``, ``max_episode_steps``, ``notification``...), less
+            ``autoreset_mode``, which SB3 fixes.
+
+    Raises:
+        ValueError: ``n_envs`` below 1, or ``autoreset_mode`` given.
+    """
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from ns_pz.envs.registry import make_vec
+    from ns_pz.learning.sb3_vec import SB3VecEnv
+
+    n_envs = count("n_envs", n_envs)
+    if "autoreset_mode" in env_kwargs:
+        raise ValueError(
+            f"autoreset_mode={env_kwargs['autoreset_mode']!r}: SB3 resets in the same step, "
+            "leave it out"
+        )
+    vector = make_vec(env_id, n_envs, autoreset_mode="SameStep", **env_kwargs)
+    return VecMonitor(SB3VecEnv(vector))
 
 
 @dataclass
