@@ -480,17 +480,20 @@ def tabular(seeds: int, episodes: int, workers: int, budget: float) -> str:
         f"{LAKE_STEP:g}; budget {budget:g})",
         "",
         "| way of training | seeds | agent's return | fraction of the exact harm | "
-        "training seconds |",
-        "|---|---|---|---|---|",
+        "per seed | training seconds |",
+        "|---|---|---|---|---|---|",
     ]
     for way in WAYS:
         runs = [r for r in records if r["way"] == way]
         value = aggregate_runs([r["value"] for r in runs])
-        harm = aggregate_runs([(static - r["value"]) / (static - best) for r in runs])
+        fractions = [(static - r["value"]) / (static - best) for r in runs]
+        harm = aggregate_runs(fractions)
         seconds = np.mean([r["seconds"] for r in runs])
         lines.append(
             f"| {way} | {len(runs)} | {value.value:.3f} [{value.low:.3f}, {value.high:.3f}] | "
-            f"{harm.value:.2f} [{harm.low:.2f}, {harm.high:.2f}] | {seconds:.0f} |"
+            f"{harm.value:.2f} [{harm.low:.2f}, {harm.high:.2f}] | "
+            + " ".join(f"{f:.2f}" for f in fractions)
+            + f" | {seconds:.0f} |"
         )
     return "\n".join(lines)
 
@@ -542,7 +545,7 @@ def main(argv: list[str] | None = None) -> None:
         action="store_true",
         help="instead: ways of training an adversary against nature's exact best response",
     )
-    parser.add_argument("--episodes", type=int, default=100, help="--tabular's scoring episodes")
+    parser.add_argument("--episodes", type=int, default=1000, help="--tabular's scoring episodes")
     parser.add_argument(
         "--lake-budget",
         type=float,
