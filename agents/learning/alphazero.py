@@ -252,7 +252,8 @@ def train_alphazero(
     evaluation_env = NSGymEnv(
         env.family, params=env.base_params, max_episode_steps=env.max_episode_steps
     )
-    # the searches' simulated transitions: a stream of their own
+    # the searches' simulated transitions: a stream of their own (the model's own state is
+    # never used: every search is handed its root)
     model = env.family.planning_model(
         env.base_params,
         env.family.initial_state(np.random.default_rng(0)),
