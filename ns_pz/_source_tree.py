@@ -5,9 +5,9 @@ The repository keeps ``envs/`` and ``agents/`` beside ``ns_pz/``; pyproject.toml
 ``site-packages/ns_pz/``; an editable install adds a finder with the same mapping). A Python
 started in the checkout root (a REPL, a notebook, ``python -m pytest``) imports the checkout's
 ``ns_pz/`` first, whatever is installed, and that folder has no ``envs``. :func:`install` then
-adds a meta-path finder that applies the checkout's own ``package-dir`` mapping, read from its
-pyproject.toml, so the checkout imports as a whole. ``ns_pz/__init__.py`` imports this module
-first; importing it installs the finder.
+adds, ahead of the other finders, a meta-path finder that applies the checkout's own
+``package-dir`` mapping, read from its pyproject.toml, so the checkout imports as a whole.
+``ns_pz/__init__.py`` imports this module first; importing it installs the finder.
 
 A finder rather than an extended ``ns_pz.__path__``: appending the checkout root to
 ``__path__`` would make every folder there a subpackage (``ns_pz.tests``, ``ns_pz.benchmarks``,
@@ -89,7 +89,10 @@ def install(package_dir: Path | None = None) -> None:
         return
     mapping = checkout_mapping(package_dir or Path(__file__).resolve().parent)
     if mapping:
-        sys.meta_path.append(SourceTreeFinder(mapping))
+        # first, before an editable install's finder: that one maps ns_pz.envs and
+        # ns_pz.agents to the folders of the checkout it was installed from, which may be
+        # another checkout than this one (a second worktree sharing one venv)
+        sys.meta_path.insert(0, SourceTreeFinder(mapping))
 
 
 install()

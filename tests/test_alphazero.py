@@ -345,28 +345,109 @@ def test_value_targets_are_the_return_from_each_move_on():
         value_targets(moves, "mc", 0.5)
 
 
-def test_a_self_play_episode_records_the_searches_it_played():
-    """Each move's policy is its visits at the episode's temperature; rewards are the env's."""
-    from ns_pz.agents.learning.alphazero import self_play_episode, value_targets
+def _self_play(max_steps, seed=1):
+    """A self-play episode on FrozenLake θ_0 from the start, a random network, world seed 3."""
+    from ns_pz.agents.learning.alphazero import self_play_episode
 
-    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE, max_episode_steps=20)
-    observation, _ = env.reset(seed=1)
-    function = _random_function(env.family.observation_space, 1)
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE)
+    env.reset(seed=0)
+    model = env.planning_model()
+    function = _random_function(env.family.observation_space, seed)
     settings = PUCTSettings(12, 5, 1.0, 0.9)
-    moves = self_play_episode(env, observation, function, settings, 0.5, np.random.default_rng(2))
-    replay = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE, max_episode_steps=20)
-    state = replay.reset(seed=1)[0]["state"]
+    world = np.random.default_rng(3)
+    moves, tail = self_play_episode(
+        model, 0, function, settings, 0.5, np.random.default_rng(2), world, max_steps
+    )
+    return env, function, moves, tail
+
+
+def test_a_self_play_episode_records_the_searches_it_played():
+    """Each move's policy is its visits at the episode's temperature; transitions are the world's.
+
+    Replaying the moves with the world's generator (seed 3) through the family's step gives the
+    same states and rewards; the episode ends in a terminal state, so nothing is bootstrapped.
+    """
+    from ns_pz.agents.learning.alphazero import value_targets
+
+    env, _, moves, tail = _self_play(max_steps=100)
+    world, state, terminal = np.random.default_rng(3), 0, False
     for move in moves:
         squared = move.visits**2 / (move.visits**2).sum()
         np.testing.assert_allclose(move.policy, squared)
         assert move.features.argmax() == state
-        observation, reward, *_ = replay.step(move.action)
-        state = observation["state"]
+        state, reward, terminal = env.family.step(state, move.action, env.base_params, world)
         assert move.reward == reward
-    z = value_targets(moves, "return", 0.9)
+    assert terminal and tail == 0.0 and len(moves) < 100
+    z = value_targets(moves, "return", 0.9, tail)
     assert z[-1] == moves[-1].reward and z[0] == pytest.approx(
         sum(0.9**k * m.reward for k, m in enumerate(moves))
     )
+
+
+def test_an_episode_cut_short_is_bootstrapped_with_the_networks_value():
+    """Cut at 2 moves in a non-terminal state: the tail is the network's value of that state."""
+    from ns_pz.agents.learning.alphazero import value_targets
+
+    env, function, moves, tail = _self_play(max_steps=2)
+    world, state = np.random.default_rng(3), 0
+    for move in moves:
+        state, _, terminal = env.family.step(state, move.action, env.base_params, world)
+    assert len(moves) == 2 and not terminal
+    assert tail == pytest.approx(function(state)[1])
+    rewards = [m.reward for m in moves]
+    z = value_targets(moves, "return", 0.9, tail)
+    np.testing.assert_allclose(
+        z, [rewards[0] + 0.9 * (rewards[1] + 0.9 * tail), rewards[1] + 0.9 * tail], rtol=1e-6
+    )
+
+
+def test_exploring_starts_draw_from_the_states_an_episode_can_be_in():
+    """CliffWalking: every cell but the cliff (never occupied) and the goal (terminal)."""
+    from ns_pz.agents.learning.alphazero import exploring_states
+
+    env = ns_pz.make_gym("ns_pz/CliffWalking-v0", params={"slip": [1.0, 0.0, 0.0, 0.0]})
+    env.reset(seed=0)
+    np.testing.assert_array_equal(exploring_states(env.planning_model()), np.arange(37))
+    lake = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE)
+    lake.reset(seed=0)
+    holes_and_goal = {5, 7, 11, 12, 15}
+    assert set(exploring_states(lake.planning_model())) == set(range(16)) - holes_and_goal
+
+
+def test_exploring_starts_need_a_tabular_family():
+    """CartPole has no outcome table: the message says so; a fraction outside [0, 1] is refused."""
+    cartpole = ns_pz.make_gym("ns_pz/CartPole-v0").family
+    with pytest.raises(ValueError, match="exploring_starts=0.5 needs a tabular family"):
+        AlphaZeroArgs(exploring_starts=0.5).for_family(cartpole)
+    AlphaZeroArgs().for_family(cartpole)  # 0: fine
+    with pytest.raises(ValueError, match=r"exploring_starts=1.5 must lie in \[0.0, 1.0\]"):
+        AlphaZeroArgs(exploring_starts=1.5)
+
+
+@pytest.mark.usefixtures("_tmp_cache")
+def test_the_quick_cliff_walking_network_is_worth_searching_with():
+    """The shipped quick CliffWalking AlphaZero (seconds of self-play) plays θ_0 near the optimum.
+
+    PUCT as the table runs it (50 simulations, the paper's root noise ε 0.75) from the start, 8
+    seeded episodes: every one reaches the goal, mean >= 80 (the optimum is 88; a network trained
+    on 40 episodes from the start scored a mean of 72, 59 at worst, and its prior alone looped).
+    """
+    from ns_pz.experiments.spec import load_spec
+
+    spec = load_spec("cliffwalking-single", "quick")
+    (hyper,) = [agent.hyper for agent in spec.agents if agent.name == "alphazero"]
+
+    def make():
+        return ns_pz.make_gym(
+            "ns_pz/CliffWalking-v0",
+            goal_reward=100.0,
+            params={"slip": [1.0, 0.0, 0.0, 0.0]},
+            max_episode_steps=200,
+        )
+
+    agent = agent_entry("alphazero").make(make(), hyper)
+    returns = [e.episode_return for e in evaluate(make, agent, range(8))]
+    assert min(returns) > 0 and np.mean(returns) >= 80, returns
 
 
 def test_training_keeps_the_best_evaluated_network(_tmp_cache):

@@ -97,6 +97,7 @@ def test_fine_tuning_is_reproducible_from_the_agent_generator():
         ("time_budget", float("inf"), "time_budget=inf must be a finite number > 0"),
         ("checks", 0, "checks=0 must be an int >= 1"),
         ("evaluation_episodes", 1, "evaluation_episodes=1 must be an int >= 2"),
+        ("interval", 0, "interval=0 must be an int >= 1"),
     ],
 )
 def test_bad_budget_is_refused(field, value, match):
@@ -125,6 +126,33 @@ def test_without_validation_the_last_fine_tuned_network_is_kept():
     assert any(
         not torch.equal(b, a) for b, a in zip(before, agent.online.parameters(), strict=True)
     )
+
+
+@pytest.mark.parametrize(
+    ("interval", "flags", "tuned_at"),
+    [
+        (1, [1, 1, 0, 1, 0], [0, 1, 3]),  # every notified change
+        (3, [1, 1, 1, 1, 1, 1, 1], [0, 3, 6]),  # changes at every step: every third step
+        (3, [1, 1, 0, 0, 0, 0, 0], [0, 3]),  # the change at step 1 is not dropped
+        (3, [0, 0, 1, 0, 0, 0, 0], [2]),
+    ],
+)
+def test_an_interval_spaces_the_fine_tunings_and_keeps_changes_pending(interval, flags, tuned_at):
+    """Fine-tunings happen at notified (or pending) changes at least ``interval`` steps apart."""
+    env = _env()
+    observation, _ = env.reset(seed=0)
+    model = env.planning_model()
+    agent = _agent(
+        env, model_steps=4, gradient_steps=0, checks=1, evaluation_episodes=2, interval=interval
+    )
+    tuned = []
+    for step, flag in enumerate(flags):
+        flagged = {**observation, "env_change": np.full_like(observation["env_change"], flag)}
+        before = agent.fine_tunings
+        agent.act(flagged, model)
+        if agent.fine_tunings > before:
+            tuned.append(step)
+    assert tuned == tuned_at
 
 
 def test_acting_leaves_torchs_thread_count_as_it_was():
@@ -303,3 +331,30 @@ def test_a_time_budget_replaces_the_step_counts():
     used = agent.last_fine_tuning
     assert used["model_steps"] > 0 and used["model_steps"] != 200
     assert agent.buffer.size == used["model_steps"]
+
+
+def test_on_cartpole_the_scoring_episodes_are_copies():
+    """CartPole is deterministic: 16 greedy scoring episodes from one state return one value.
+
+    So the CartPole specs score with 2 episodes, which decide exactly as 16 do (every paired
+    difference equal: the standard error is 0 either way).
+    """
+    from ns_pz.agents.learning.ddqn_wn import FineTunedDDQNAgent
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    weights = {
+        "q.0.weight": rng.normal(size=(8, 4)).astype(np.float32),
+        "q.0.bias": rng.normal(size=8).astype(np.float32),
+        "q.1.weight": rng.normal(size=(2, 8)).astype(np.float32),
+        "q.1.bias": rng.normal(size=2).astype(np.float32),
+    }
+    args = DDQNArgs(hidden=(8,), max_episode_steps=50)
+    agent = FineTunedDDQNAgent(
+        weights, env.family.observation_space, args, model_steps=0, gradient_steps=0, epsilon=0.0
+    )
+    agent.reset(np.random.default_rng(1))
+    model = env.planning_model()
+    returns, steps = agent._greedy_returns(model, model.get_state(), seed=7)
+    assert len(returns) == 16 and np.all(returns == returns[0]) and steps == 16 * returns[0]

@@ -5,14 +5,25 @@ between the visit distribution and the network's *logits* (NS-Gym applied ``cros
 softmax outputs, a double softmax), and the network trains on a window of recent self-play
 samples rather than only the last episode. The loop reads top to bottom:
 
-for each episode: play it with PUCT on the planning model (θ_0) under the current network
-(:func:`self_play_episode`), recording per move the visit distribution at temperature T and
-sampling the move from it (:func:`sample_move`); the value target of a move
+for each episode: start it at the environment's start or, with probability
+``exploring_starts`` (tabular families), at a state drawn uniformly from those an episode can be
+in (:func:`episode_start`); play it with PUCT on the planning model (θ_0) under the current
+network (:func:`self_play_episode`), recording per move the visit distribution at temperature
+T and sampling the move from it (:func:`sample_move`); the value target of a move
 (:func:`value_targets`) is the discounted return from that move to the episode's end
-(AlphaZero's z; ``value_target="root_q"``: the paper's and NS-Gym's visit-weighted root Q,
+(AlphaZero's z), plus, where the episode was cut off by ``max_episode_steps`` rather than
+ended, the network's value of the state it was cut off in (a time limit of self-play is not the
+end of the task; ``value_target="root_q"``: the paper's and NS-Gym's visit-weighted root Q,
 which learns nothing from sparse rewards until the search itself finds them); then ``epochs``
 full-batch Adam steps on the window with ``loss = MSE(v, V_target) + CE(π_target,
 softmax(logits))`` (weight decay in Adam); ``T <- max(decay * T, T_min)``.
+
+Exploring starts make short, cheap episodes informative where a sparse reward lies far from
+the start: on CliffWalking under the paper's root noise (ε 0.75), 40 episodes of up to 200
+moves from the start left a network whose prior looped and whose value of the start was -35
+(the optimum: 88); 150 episodes of at most 30 moves from uniformly drawn states, at about the
+same cost, give one whose values rise towards the goal and whose search plays θ_0 near the
+optimum.
 
 The network kept is the best *evaluated* one: every ``evaluate_every`` episodes (and after the
 last) the network plays ``evaluation_episodes`` episodes on held-out seeds as the agent will
@@ -96,38 +107,70 @@ def sample_move(
 
 
 def self_play_episode(
-    env: NSGymEnv,
-    observation: dict[str, Any],
+    model: Any,
+    state: Any,
     function: PolicyValueFunction,
     settings: PUCTSettings,
     temperature: float,
     rng: np.random.Generator,
-) -> list[Move]:
-    """Play ``env`` from ``observation`` (just reset) to its end with PUCT guided by ``function``.
+    world: np.random.Generator,
+    max_steps: int,
+) -> tuple[list[Move], float]:
+    """Play from ``state`` in ``model``'s θ to a terminal state or ``max_steps`` moves.
 
-    Each move searches the planning model from the current state with ``rng`` and draws the
-    move from the visit distribution at ``temperature``.
+    Each move searches ``model`` from the current state with ``rng`` and draws the move from
+    the visit distribution at ``temperature`` (also with ``rng``); the move's real transition
+    draws from ``world`` (``model.family.step`` under ``model.theta``: the stationary
+    environment of training, stepped without the search ever touching its generator).
+
+    Returns:
+        The moves, and the network's value of the state the episode was cut off in (0 if it
+        ended in a terminal state): what the return would have continued with.
     """
-    space = env.family.observation_space
+    family = model.family
+    space = family.observation_space
+    evaluate = model_evaluation(function, model)
     moves: list[Move] = []
-    done = False
-    while not done:
-        model = env.planning_model()
-        tree = puct_tree(model, model.get_state(), rng, model_evaluation(function, model), settings)
+    for _ in range(max_steps):
+        tree = puct_tree(model, state, rng, evaluate, settings)
         policy, action = sample_move(tree, temperature, rng)
-        x = features(space, observation["state"])
-        observation, reward, terminated, truncated, _ = env.step(action)
+        x = features(space, family.observe(state))
+        state, reward, terminal = family.step(state, action, model.theta, world)
         moves.append(Move(x, tree.visits, policy, tree.value_target(), action, float(reward)))
-        done = terminated or truncated
-    return moves
+        if terminal:
+            return moves, 0.0
+    return moves, evaluate(state)[1]
 
 
-def value_targets(moves: list[Move], value_target: str, gamma: float) -> np.ndarray:
+def exploring_states(model: Any) -> np.ndarray:
+    """The states an episode of a tabular ``model`` can be in, for exploring starts.
+
+    Every state some non-terminal transition leads to (sorted): terminal states are left out,
+    and so are cells the agent never occupies (CliffWalking's cliff, whose entry sends it back
+    to the start).
+
+    Raises:
+        ValueError: ``model`` has no outcome table (exploring starts need a tabular family).
+    """
+    outcomes = getattr(model, "outcomes", None)
+    if outcomes is None:
+        raise ValueError(
+            f"exploring starts need a tabular family (an outcome table); "
+            f"{type(model.family).__name__} has none"
+        )
+    return np.unique(outcomes.next_states[~outcomes.terminals])
+
+
+def value_targets(
+    moves: list[Move], value_target: str, gamma: float, tail: float = 0.0
+) -> np.ndarray:
     """``[len(moves)]`` value targets of one episode's moves.
 
     ``"return"``: the discounted return from each move on, ``z_t = r_t + γ z_{t+1}`` with
-    ``r_t`` the reward of move ``t``'s own transition (0 after the last move); ``"root_q"``:
-    each move's visit-weighted root Q.
+    ``r_t`` the reward of move ``t``'s own transition and ``tail`` after the last move (the
+    value of the state an episode was cut off in, so a time limit of self-play does not read as
+    the end of the task; 0 after a terminal state); ``"root_q"``: each move's visit-weighted
+    root Q.
 
     Raises:
         ValueError: An unknown ``value_target``.
@@ -137,7 +180,6 @@ def value_targets(moves: list[Move], value_target: str, gamma: float) -> np.ndar
     if value_target != "return":
         raise ValueError(f"value_target={value_target!r} is not 'return' or 'root_q'")
     targets = np.zeros(len(moves), dtype=np.float32)
-    tail = 0.0
     for i in range(len(moves) - 1, -1, -1):
         tail = moves[i].reward + gamma * tail
         targets[i] = tail
@@ -164,6 +206,19 @@ def evaluation_return(
             total += float(reward)
             done = terminated or truncated
     return total / len(seeds)
+
+
+def episode_start(
+    env: NSGymEnv, world: np.random.Generator, starts: np.ndarray | None, exploring: float
+) -> Any:
+    """The first state of a self-play episode, drawn with ``world``.
+
+    With probability ``exploring`` (no draw when it is 0) a state of ``starts`` uniformly (an
+    exploring start), else the family's initial state.
+    """
+    if starts is not None and exploring > 0.0 and world.random() < exploring:
+        return starts[int(world.integers(len(starts)))].item()
+    return env.family.initial_state(world)
 
 
 def train_alphazero(
@@ -197,6 +252,15 @@ def train_alphazero(
     evaluation_env = NSGymEnv(
         env.family, params=env.base_params, max_episode_steps=env.max_episode_steps
     )
+    # the searches' simulated transitions: a stream of their own (the model's own state is
+    # never used: every search is handed its root)
+    model = env.family.planning_model(
+        env.base_params,
+        env.family.initial_state(np.random.default_rng(0)),
+        np.random.default_rng(np.random.SeedSequence([seed, 3])),
+    )
+    world = np.random.default_rng(env_seed)  # starts and real transitions of self-play
+    starts = exploring_states(model) if args.exploring_starts > 0.0 else None
     start = time.perf_counter()
     with seeded_torch(torch_seed):
         network = PolicyValueNet(feature_size(space), args.hidden, num_actions)
@@ -209,18 +273,19 @@ def train_alphazero(
         evaluations: list[tuple[int, float]] = []
         best, kept = -np.inf, network.export()
 
-        observation, _ = env.reset(seed=env_seed)
         for episode in range(1, args.episodes + 1):
             # play one episode with the current network, recording the search targets
             function = PolicyValueFunction(network.export(), space)
-            moves = self_play_episode(env, observation, function, settings, temperature, rng)
+            state = episode_start(env, world, starts, args.exploring_starts)
+            moves, tail = self_play_episode(
+                model, state, function, settings, temperature, rng, world, args.max_episode_steps
+            )
             returns.append(sum(move.reward for move in moves))
-            targets = value_targets(moves, args.value_target, args.gamma)
+            targets = value_targets(moves, args.value_target, args.gamma, tail)
             samples.extend(
                 (move.features, move.policy, target)
                 for move, target in zip(moves, targets, strict=True)
             )
-            observation, _ = env.reset()
 
             # full-batch gradient steps on the recent samples
             x = torch.from_numpy(np.stack([s[0] for s in samples]))

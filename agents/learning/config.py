@@ -195,6 +195,9 @@ class AlphaZeroArgs:
     """Held-out episodes per evaluation, played as the agent acts (PUCT, most visited action)."""
     max_episode_steps: int = 100
     """Truncation of self-play episodes."""
+    exploring_starts: float = 0.0
+    """Fraction of self-play episodes that start from a state drawn uniformly from those an
+    episode can be in, rather than from the environment's start (tabular families only)."""
     seed: int = 0
     """Training seed (episodes, search, sampling of moves, initialisation)."""
     search_iterations: int | None = None
@@ -224,6 +227,7 @@ class AlphaZeroArgs:
         for name in ("c", "dirichlet_alpha"):
             if getattr(self, name) is not None:
                 _real(name, getattr(self, name), 0.0)
+        _real("exploring_starts", self.exploring_starts, 0.0, 1.0)
         for name in ("gamma", "noise"):
             if getattr(self, name) is not None:
                 _real(name, getattr(self, name), 0.0, 1.0)
@@ -253,8 +257,17 @@ class AlphaZeroArgs:
         )
 
     def for_family(self, family: object) -> AlphaZeroArgs:
-        """These settings with the paper's values filled in for ``family`` where None."""
+        """These settings with the paper's values filled in for ``family`` where None.
+
+        Raises:
+            ValueError: ``exploring_starts`` above 0 for a family without an outcome table.
+        """
         hidden, c, gamma, alpha, noise = paper_entry(ALPHAZERO_PAPER, family)
+        if self.exploring_starts > 0.0 and not hasattr(family, "outcomes"):
+            raise ValueError(
+                f"exploring_starts={self.exploring_starts!r} needs a tabular family (one with an "
+                f"outcome table); {type(family).__name__} has none: use 0"
+            )
         return dataclasses.replace(
             self,
             hidden=self.hidden if self.hidden is not None else hidden,

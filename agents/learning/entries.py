@@ -62,6 +62,7 @@ _DDQN_WN_ACTING = (
     "checks",
     "evaluation_episodes",
     "validate",
+    "interval",
 )
 
 

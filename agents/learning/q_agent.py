@@ -77,19 +77,21 @@ def check_fine_tuning(
     checks: Any = 1,
     evaluation_episodes: Any = 2,
     validate: Any = True,
+    interval: Any = 1,
 ) -> None:
     """Validate DDQN-WN's fine-tuning budget.
 
     Raises:
-        ValueError: A count that is not an int >= 0, ``checks`` below 1, ``evaluation_episodes``
-            below 2, ``epsilon`` outside [0, 1], or a ``time_budget`` (when not None) that is
-            not a finite number > 0.
+        ValueError: A count that is not an int >= 0, ``checks`` or ``interval`` below 1,
+            ``evaluation_episodes`` below 2, ``epsilon`` outside [0, 1], or a ``time_budget``
+            (when not None) that is not a finite number > 0.
         TypeError: ``epsilon`` is not a real number, or ``validate`` not a bool.
     """
     flag("validate", validate)
     count("model_steps", model_steps, 0)
     count("gradient_steps", gradient_steps, 0)
     count("checks", checks, 1)
+    count("interval", interval, 1)
     count("evaluation_episodes", evaluation_episodes, 2)
     if time_budget is not None:
         positive_number("time_budget", time_budget)
@@ -109,6 +111,7 @@ def build_ddqn_wn(
     checks: int = 5,
     evaluation_episodes: int = 16,
     validate: bool = True,
+    interval: int = 1,
     ddqn: Mapping[str, Any] | None = None,
 ) -> Agent:
     """DDQN-WN for ``env``: the ``ddqn`` agent's network, fine-tuned on notified changes.
@@ -127,6 +130,8 @@ def build_ddqn_wn(
         checks: Rounds of the budget, each ending with a scored candidate.
         evaluation_episodes: Greedy episodes in the handed model that score a candidate.
         validate: False: keep the last fine-tuned network unscored (the paper's fine-tuning).
+        interval: Fewest steps between fine-tunings (1: every notified change); a change
+            notified sooner is fine-tuned for once the interval has passed.
         ddqn: :class:`DDQNArgs` of the network (as the ``ddqn`` agent's, to share it); its
             learning rate, γ, τ, batch size and weight decay also drive the fine-tuning.
     """
@@ -144,4 +149,5 @@ def build_ddqn_wn(
         checks=checks,
         evaluation_episodes=evaluation_episodes,
         validate=validate,
+        interval=interval,
     )
