@@ -145,7 +145,7 @@ def main() -> None:
 
         steps, seeds, episodes = args.train_steps, args.train_seeds, args.eval_episodes
         if args.smoke:
-            steps, seeds, episodes = 256, 1, 2
+            steps, seeds, episodes = 128, 1, 2
         print_table(steps, seeds, episodes, args.settings, args.variants, args.workers)
         return
     cap = 2 if args.smoke else args.episodes
