@@ -211,8 +211,11 @@ class ResultStore:
     def _scan(
         self,
     ) -> tuple[list[dict[str, Any]], list[tuple[Path, str]], list[tuple[Path, str]]]:
+        # Trial files first: a run packing meanwhile removes them only once the pack holds them.
+        file_bad: list[tuple[Path, str]] = []
+        loose, strays = self._read_trial_files(file_bad)
         packed, bad = self._read_pack()
-        loose, strays = self._read_trial_files(bad)
+        bad.extend(file_bad)
         by_key = {row["trial"]: row for row in packed}
         by_key.update((row["trial"], row) for _, row in loose)  # a trial file wins
         return [by_key[key] for key in sorted(by_key)], bad, strays
@@ -246,6 +249,8 @@ class ResultStore:
                 continue
             try:
                 text = path.read_text(encoding="utf-8")
+            except FileNotFoundError:
+                continue  # packed since the listing
             except (OSError, UnicodeDecodeError) as error:
                 bad.append((path, str(error)))
                 continue
