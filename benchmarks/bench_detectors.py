@@ -124,9 +124,12 @@ def main() -> None:
     parser.add_argument(
         "--learned", action="store_true", help="the learned-monitor table (needs SB3) instead"
     )
-    parser.add_argument("--train-steps", type=int, default=60_000)
-    parser.add_argument("--train-seeds", type=int, default=3)
+    parser.add_argument("--train-steps", type=int, default=40_000)
+    parser.add_argument("--train-seeds", type=int, default=5)
     parser.add_argument("--eval-episodes", type=int, default=200)
+    parser.add_argument("--settings", nargs="+", default=None, help="--learned: which settings")
+    parser.add_argument("--variants", nargs="+", default=None, help="--learned: which monitors")
+    parser.add_argument("--workers", type=int, default=1, help="--learned: training processes")
     parser.add_argument(
         "--river", action="store_true", help="beside river's detectors (needs river) instead"
     )
@@ -142,8 +145,8 @@ def main() -> None:
 
         steps, seeds, episodes = args.train_steps, args.train_seeds, args.eval_episodes
         if args.smoke:
-            steps, seeds, episodes = 256, 1, 2
-        print_table(steps, seeds, episodes)
+            steps, seeds, episodes = 128, 1, 2
+        print_table(steps, seeds, episodes, args.settings, args.variants, args.workers)
         return
     cap = 2 if args.smoke else args.episodes
     print(

@@ -47,10 +47,47 @@ def call_policy(
     predict = getattr(policy, "predict", None)
     if not callable(predict):
         return policy(observation)
+    action, _ = _predict(predict, policy, observation, deterministic, rng)
+    return action
+
+
+def call_recurrent_policy(
+    policy: Any,
+    observation: Any,
+    state: Any,
+    episode_start: bool,
+    *,
+    deterministic: bool = True,
+    rng: np.random.Generator | None = None,
+) -> tuple[Any, Any]:
+    """``(action, state)`` of a recurrent SB3-style model (sb3-contrib's ``RecurrentPPO``).
+
+    Args:
+        policy: A model whose ``predict`` takes ``state`` and ``episode_start``.
+        observation: This turn's observation.
+        state: What the previous call returned (``None`` at an episode's first turn).
+        episode_start: Whether this is the episode's first turn (the model resets its state).
+        deterministic: As in :func:`call_policy`, as is ``rng`` (sampling reproducibly).
+        rng: As in :func:`call_policy`.
+    """
+    start = np.array([episode_start], dtype=bool)
+    return _predict(
+        policy.predict, policy, observation, deterministic, rng, state=state, episode_start=start
+    )
+
+
+def _predict(
+    predict: Any,
+    policy: Any,
+    observation: Any,
+    deterministic: bool,
+    rng: np.random.Generator | None,
+    **extra: Any,
+) -> tuple[Any, Any]:
+    """``predict(observation, deterministic=..., **extra)``, sampling from a seeded torch RNG."""
     torch = sys.modules.get("torch")  # loaded if the model is a torch one; never imported here
     if deterministic or rng is None or torch is None:
-        action, _ = predict(observation, deterministic=deterministic)
-        return action
+        return predict(observation, deterministic=deterministic, **extra)
     seed = int(rng.integers(2**63))
     device: Any = getattr(policy, "device", None)  # an SB3 model's; sampling draws on it
     cuda = [device.index or 0] if getattr(device, "type", None) == "cuda" else []
@@ -59,8 +96,7 @@ def call_policy(
         if cuda:
             with torch.cuda.device(cuda[0]):
                 torch.cuda.manual_seed(seed)
-        action, _ = predict(observation, deterministic=False)
-    return action
+        return predict(observation, deterministic=False, **extra)
 
 
 def check_policy(policy: Any, seat: str, label: str | None = None) -> None:

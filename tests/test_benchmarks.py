@@ -64,7 +64,15 @@ def test_detector_benchmark_smoke_run():
 @pytest.mark.parametrize(
     ("flag", "needs", "rows"),
     [
-        ("--learned", "stable_baselines3", ("| never alarm |", "| PPO + features, seed 0 |")),
+        (
+            "--learned",
+            "sb3_contrib",
+            (
+                "| CliffWalking, slip 1.0 → 0.8 at 30 | never alarm |",
+                "| FrozenLake 8x8, slip 0.7 → 0.4 at 5 | ppo+cusum |",
+                "| FrozenLake 8x8, slip 0.7 → 0.4 at 5 | recurrent |",
+            ),
+        ),
         ("--river", "river", ("| river ADWIN |", "| TabularCusumMonitor(h=10) |")),
     ],
 )

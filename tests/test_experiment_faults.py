@@ -139,6 +139,12 @@ def _copy_run(finished: Path, tmp_path: Path) -> tuple[Path, Path]:
     return write(tmp_path), tmp_path / "out" / "tiny-quick"
 
 
+def _packed_lines(run: Path) -> list[str]:
+    """The rows a finished run packed into ``trials.jsonl``, as stored."""
+    assert not list((run / "trials").glob("*.json"))  # the end of the run packed them
+    return (run / "trials.jsonl").read_text().splitlines()
+
+
 def test_a_stray_copy_of_a_trial_file_is_not_another_episode(
     finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -146,11 +152,12 @@ def test_a_stray_copy_of_a_trial_file_is_not_another_episode(
     spec_path, run = _copy_run(finished, tmp_path)
     store = ResultStore(run)
     clean = store.rows()
-    first = sorted((run / "trials").glob("*.json"))[0]
-    copy = first.with_name(f"{first.stem} (copy).json")
-    renamed = first.with_name("00-renamed-s0.json")  # a valid key, another trial's row
-    shutil.copy(first, copy)
-    shutil.copy(first, renamed)
+    line = _packed_lines(run)[0]
+    key = json.loads(line)["trial"]
+    copy = run / "trials" / f"{key} (copy).json"
+    renamed = run / "trials" / "00-renamed-s0.json"  # a valid key, another trial's row
+    copy.write_text(line)
+    renamed.write_text(line)
     assert store.rows() == clean and len(clean) == 16
     assert {path for path, _ in store.strays()} == {renamed, copy}
     assert store.unreadable() == []
@@ -158,7 +165,7 @@ def test_a_stray_copy_of_a_trial_file_is_not_another_episode(
     assert main(["bench", "table", str(tmp_path / "out")], print) == 0
     error = capsys.readouterr().err
     assert f"skipped {copy}: not a trial file" in error
-    assert f"skipped {renamed}: holds trial {first.stem!r}" in error
+    assert f"skipped {renamed}: holds trial {key!r}" in error
     run_command = ["bench", "run", str(spec_path), "--out", str(tmp_path / "out")]
     assert main([*run_command, "--workers", "1", "--resume"], print) == 0
     assert "(0 trials run, 16 already done" in capsys.readouterr().out
@@ -175,19 +182,21 @@ def test_a_stray_copy_of_a_trial_file_is_not_another_episode(
         (lambda row: row.update({"alarm_times": "[1,"}), "alarm_times is '[1,'"),
     ],
 )
-def test_a_valid_json_but_incomplete_trial_file_is_named_skipped_and_rerun(
+def test_a_valid_json_but_incomplete_row_is_named_skipped_and_rerun(
     finished: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], damage, said: str
 ) -> None:
-    """`bench table` gave a traceback (KeyError, float(None)); now it names the file."""
+    """`bench table` gave a traceback (KeyError, float(None)); now it names the file and line."""
     spec_path, run = _copy_run(finished, tmp_path)
-    victim = sorted((run / "trials").glob("*.json"))[5]
-    row = json.loads(victim.read_text())
+    lines = _packed_lines(run)
+    row = json.loads(lines[5])
     damage(row)
-    victim.write_text(json.dumps(row))
+    lines[5] = json.dumps(row)
+    (run / "trials.jsonl").write_text("\n".join(lines) + "\n")
     capsys.readouterr()
     assert main(["bench", "table", str(tmp_path / "out")], print) == 0
     error = capsys.readouterr().err
-    assert f"skipped {victim}: unreadable (not a complete result row: {said}" in error
+    pack = run / "trials.jsonl"
+    assert f"skipped {pack}: unreadable (line 6: not a complete result row: {said}" in error
     assert len(ResultStore(run).rows()) == 15
     run_command = ["bench", "run", str(spec_path), "--out", str(tmp_path / "out")]
     assert main([*run_command, "--workers", "1", "--resume"], print) == 0
@@ -195,6 +204,7 @@ def test_a_valid_json_but_incomplete_trial_file_is_named_skipped_and_rerun(
     assert without_times(ResultStore(run).rows()) == without_times(
         ResultStore(finished / "out").rows()
     )
+    assert ResultStore(run).unreadable() == []  # the run that re-ran it dropped the line
 
 
 def test_a_spec_record_without_settings_is_named_and_its_run_skipped(

@@ -372,19 +372,23 @@ def test_a_truncated_trial_file_is_named_skipped_by_table_and_rerun_by_resume(
     run = ["bench", "run", str(spec_path), "--out", str(out), "--workers", "1"]
     assert main(run, print) == 0
     clean = without_times(ResultStore(out / "tiny-quick").rows())
-    victim = sorted((out / "tiny-quick" / "trials").glob("*.json"))[3]
-    victim.write_text(victim.read_text()[:40])
+    victim = out / "tiny-quick" / "trials.jsonl"  # where the finished run packed its rows
+    lines = victim.read_text().splitlines()
+    lines[3] = lines[3][:40]
+    victim.write_text("\n".join(lines) + "\n")
     (out / "tiny-quick" / "trials" / "stray.json").write_text("[1, 2]")
     capsys.readouterr()
     assert main(["bench", "table", str(out)], print) == 0
     error = capsys.readouterr().err
-    assert f"skipped {victim}: unreadable" in error and "stray.json: unreadable" in error
+    assert f"skipped {victim}: unreadable (line 4: " in error
+    assert "stray.json: unreadable" in error
     assert main([*run, "--resume"], print) == 0
     captured = capsys.readouterr()
-    assert f"{victim} is unreadable" in captured.err
+    assert f"{victim} is unreadable (line 4: " in captured.err
     assert "(1 trials run, 31 already done, 0 failed" in captured.out
     (out / "tiny-quick" / "trials" / "stray.json").unlink()
     assert without_times(ResultStore(out / "tiny-quick").rows()) == clean
+    assert ResultStore(out / "tiny-quick").unreadable() == []
 
 
 def test_a_corrupt_spec_record_is_named(tmp_path: Path) -> None:

@@ -1,21 +1,38 @@
-"""The results directory of one run: the spec it belongs to and one file per finished trial.
+"""The results directory of one run: the spec it belongs to and every finished trial's row.
 
 Layout::
 
-    DIR/spec.json          the resolved spec and its digest (written first)
-    DIR/trials/KEY.json    one result row per trial, written atomically
-    DIR/results.csv        every row, one per episode, rebuilt from the trial files
+    DIR/spec.json             the resolved spec and its digest (written first)
+    DIR/hyperparameters.json  each agent's hyper-parameters once, under a short key
+    DIR/trials/KEY.json       one result row per trial finished since the last pack, atomically
+    DIR/trials.jsonl          the packed rows, one per line (rewritten atomically)
+    DIR/results.csv           every row, one per episode, rebuilt from the rows above
+
+A row on disk holds ``hyperparameters_key`` (the first 12 hex digits of the SHA-256 of the
+hyper-parameters' canonical JSON) in place of the hyper-parameters, which
+``hyperparameters.json`` holds once per agent; :meth:`ResultStore.rows` puts them back, so a
+row read is the row written. A row that holds its hyper-parameters itself, as stores written
+before ``hyperparameters.json`` existed do, is read as it is; packing moves them into the file.
+
+During a run every trial's row is its own file; at the end of the run (and when it stops
+early) :meth:`ResultStore.write_csv` packs them into ``trials.jsonl`` and removes them. A file
+per trial costs at least a file-system block (4 KiB on most) for a row of a few hundred bytes:
+most of what a finished run used to leave on disk.
 
 Every file is written to a temporary name and renamed, so a run killed at any moment (Ctrl-C,
-``kill -9``, a crashed machine) leaves complete trial files and at worst a stray temporary one,
-never a half-written result. Resuming skips the trials that have a file with status ``ok`` and
-re-runs the rest, errors included. A trial file that cannot be read anyway (a disk that filled
-up, a copy cut short, a hand edit: not JSON, or JSON that is not a complete result row) is named
-and treated as not done: ``--resume`` re-runs its trial, and reports list it as skipped
-(:meth:`ResultStore.unreadable`). Only the files the store names are trial files: ``KEY.json``
+``kill -9``, a crashed machine) leaves complete files and at worst a stray temporary one,
+never a half-written result (a pack that stops between writing ``trials.jsonl`` and removing
+the packed trial files leaves rows twice, and a trial file wins over its packed copy).
+Resuming skips the trials that have a row with status ``ok`` and re-runs the rest, errors
+included. A row that cannot be read anyway (a disk that filled up, a copy cut short, a hand
+edit: not JSON, or JSON that is not a complete result row) is named and treated as not done:
+``--resume`` re-runs its trial, and reports list it as skipped (:meth:`ResultStore.unreadable`;
+a line of ``trials.jsonl`` is named by its number; the run that packs next drops it, having
+named it when it started). Only the files the store names are trial files: ``KEY.json``
 holding the row of trial ``KEY``. Any other file in ``trials/`` (``KEY (copy).json``, a
-renamed file) is named and ignored, never counted as another episode (:meth:`ResultStore.strays`).
-A write that fails (a full disk) names the file and leaves no temporary file behind.
+renamed file) is named and ignored, never counted as another episode
+(:meth:`ResultStore.strays`). A write that fails (a full disk) names the file and leaves no
+temporary file behind.
 
 Only one run at a time writes into a directory (:mod:`ns_pz.experiments.lock`).
 """
@@ -24,6 +41,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import hashlib
 import json
 import os
 import re
@@ -44,6 +62,9 @@ class ResultStore:
     def __init__(self, root: str | Path) -> None:
         self.root = Path(root)
         self.trials_dir = self.root / "trials"
+        self.pack_path = self.root / "trials.jsonl"
+        self.hyper_path = self.root / "hyperparameters.json"
+        self._hyper: dict[str, dict[str, Any]] | None = None  # the file's, once read
 
     # -- setup ---------------------------------------------------------------------------
     def check(self, spec: ExperimentSpec, resume: bool) -> None:
@@ -59,7 +80,7 @@ class ResultStore:
             raise SpecError(f"--out {self.root} is a file, not a directory")
         meta = self.root / "spec.json"
         if not meta.exists():
-            if any(self.trials_dir.glob("*.json")):
+            if self._holds_rows():
                 raise SpecError(
                     f"{self.root} holds trial results but no spec.json; use another --out"
                 )
@@ -73,7 +94,7 @@ class ResultStore:
                 f"{spec.digest()}: {_difference(stored.get('spec', {}), spec.to_dict())}). "
                 "Use another --out directory."
             )
-        if not resume and any(self.trials_dir.glob("*.json")):
+        if not resume and self._holds_rows():
             raise SpecError(
                 f"{self.root} already holds results of this spec; pass --resume to finish "
                 "it, or use another --out directory"
@@ -98,6 +119,9 @@ class ResultStore:
             raise SpecError(f"{self.root} is not a results directory (no spec.json)")
         return _read_record(meta)
 
+    def _holds_rows(self) -> bool:
+        return self.pack_path.exists() or any(self.trials_dir.glob("*.json"))
+
     # -- trials ----------------------------------------------------------------------------
     def finished(self, digest: str) -> set[str]:
         """Keys of the trials of the spec with ``digest`` that have a result with status ``ok``.
@@ -117,8 +141,54 @@ class ResultStore:
         return done
 
     def write(self, row: dict[str, Any]) -> None:
-        """Store one trial's row (atomically)."""
-        _write_atomic(self.trials_dir / f"{row['trial']}.json", json.dumps(row, sort_keys=True))
+        """Store one trial's row (atomically), its hyper-parameters in ``hyperparameters.json``."""
+        text = json.dumps(self._stored(row), sort_keys=True)
+        _write_atomic(self.trials_dir / f"{row['trial']}.json", text)
+
+    def _stored(self, row: dict[str, Any]) -> dict[str, Any]:
+        """``row`` as it goes to disk: its hyper-parameters replaced by their key.
+
+        The key's entry is written to ``hyperparameters.json`` first, so no stored row ever
+        names a key the file lacks. Hyper-parameters that are not a JSON object's text stay
+        in the row.
+        """
+        text = row.get("hyperparameters")
+        try:
+            hyper = json.loads(text) if isinstance(text, str) else None
+        except json.JSONDecodeError:
+            hyper = None
+        if not isinstance(hyper, dict):
+            return row
+        key = hyperparameters_key(hyper)
+        known = self._hyperparameters()
+        if key not in known:
+            known[key] = hyper
+            _write_atomic(self.hyper_path, json.dumps(known, indent=2, sort_keys=True))
+        stored = {name: value for name, value in row.items() if name != "hyperparameters"}
+        return {**stored, "hyperparameters_key": key}
+
+    def _hyperparameters(self) -> dict[str, dict[str, Any]]:
+        """``hyperparameters.json`` (empty if there is none yet), read once.
+
+        Raises:
+            SpecError: It is not a JSON object of objects; the message names it.
+        """
+        if self._hyper is not None:
+            return self._hyper
+        known: Any = {}
+        if self.hyper_path.exists():
+            try:
+                known = json.loads(self.hyper_path.read_text(encoding="utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError) as error:
+                known = error
+            if not isinstance(known, dict) or not all(isinstance(v, dict) for v in known.values()):
+                raise SpecError(
+                    f"{self.hyper_path} is not a JSON object of hyper-parameters ({known}); the "
+                    "rows of this directory name their agents' hyper-parameters in it: restore "
+                    "it from a copy, or use another --out directory"
+                )
+        self._hyper = known
+        return known
 
     def rows(self) -> list[dict[str, Any]]:
         """Every readable stored row, ordered by trial key (see :meth:`unreadable`)."""
@@ -141,38 +211,124 @@ class ResultStore:
     def _scan(
         self,
     ) -> tuple[list[dict[str, Any]], list[tuple[Path, str]], list[tuple[Path, str]]]:
-        rows, bad, strays = [], [], []
+        # Trial files first: a run packing meanwhile removes them only once the pack holds them.
+        file_bad: list[tuple[Path, str]] = []
+        loose, strays = self._read_trial_files(file_bad)
+        packed, bad = self._read_pack()
+        bad.extend(file_bad)
+        by_key = {row["trial"]: row for row in packed}
+        by_key.update((row["trial"], row) for _, row in loose)  # a trial file wins
+        return [by_key[key] for key in sorted(by_key)], bad, strays
+
+    def _read_pack(self) -> tuple[list[dict[str, Any]], list[tuple[Path, str]]]:
+        """The rows of ``trials.jsonl``, and its unreadable lines named."""
+        rows: list[dict[str, Any]] = []
+        if not self.pack_path.exists():
+            return rows, []
+        try:
+            lines = self.pack_path.read_text(encoding="utf-8").splitlines()
+        except (OSError, UnicodeDecodeError) as error:
+            return rows, [(self.pack_path, str(error))]
+        bad = []
+        for number, line in enumerate(lines, 1):
+            row, problem = self._parse(line)
+            if problem is None:
+                rows.append(row)
+            elif line.strip():
+                bad.append((self.pack_path, f"line {number}: {problem}"))
+        return rows, bad
+
+    def _read_trial_files(
+        self, bad: list[tuple[Path, str]]
+    ) -> tuple[list[tuple[Path, dict[str, Any]]], list[tuple[Path, str]]]:
+        """The rows of ``trials/`` with their files; unreadable files are added to ``bad``."""
+        rows, strays = [], []
         for path in sorted(self.trials_dir.glob("*.json")):
             if not _KEY_PATTERN.fullmatch(path.stem):
                 strays.append((path, "not a trial file of this store (its name is no trial key)"))
                 continue
             try:
-                row = json.loads(path.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+                text = path.read_text(encoding="utf-8")
+            except FileNotFoundError:
+                continue  # packed since the listing
+            except (OSError, UnicodeDecodeError) as error:
                 bad.append((path, str(error)))
                 continue
-            problem = row_problem(row)
+            row, problem = self._parse(text)
             if problem is not None:
-                bad.append((path, f"not a complete result row: {problem}"))
+                bad.append((path, problem))
             elif row["trial"] != path.stem:
                 strays.append(
                     (path, f"holds trial {row['trial']!r}, whose file is {row['trial']}.json")
                 )
             else:
-                rows.append(row)
-        return rows, bad, strays
+                rows.append((path, row))
+        return rows, strays
+
+    def _parse(self, text: str) -> tuple[dict[str, Any], str | None]:
+        """A stored row read back (hyper-parameters put back), or why it cannot be."""
+        try:
+            row = json.loads(text)
+        except json.JSONDecodeError as error:
+            return {}, str(error)
+        if isinstance(row, dict) and "hyperparameters_key" in row:
+            key = row.pop("hyperparameters_key")
+            known = self._hyperparameters()
+            if key not in known:
+                return {}, f"its hyperparameters_key {key!r} is not in {self.hyper_path}"
+            row["hyperparameters"] = json.dumps(known[key], sort_keys=True)
+        problem = row_problem(row)
+        if problem is not None:
+            return {}, f"not a complete result row: {problem}"
+        return row, None
+
+    def pack(self) -> None:
+        """Move the trial files' rows into ``trials.jsonl`` and remove those files.
+
+        Unreadable trial files and strays stay where they are; unreadable lines of
+        ``trials.jsonl`` are dropped (their trials count as not done either way).
+        Hyper-parameters still inside rows (a store written before ``hyperparameters.json``)
+        move into that file.
+        """
+        packed, _ = self._read_pack()
+        loose, _ = self._read_trial_files([])
+        by_key = {row["trial"]: row for row in packed}
+        by_key.update((row["trial"], row) for _, row in loose)
+        lines = [json.dumps(self._stored(by_key[key]), sort_keys=True) for key in sorted(by_key)]
+        if not lines and not self.pack_path.exists():
+            return
+        _write_atomic(self.pack_path, "".join(f"{line}\n" for line in lines))
+        for path, _ in loose:
+            path.unlink()
 
     def write_csv(self) -> Path:
-        """Rebuild ``results.csv`` from the trial files; return its path."""
+        """:meth:`pack` the trial files, then rebuild ``results.csv``; return its path.
+
+        The CSV's ``hyperparameters_key`` column names each row's entry in
+        ``hyperparameters.json`` (in place of the hyper-parameters, which made most of its bytes).
+        """
+        self.pack()
         path = self.root / "results.csv"
         rows = self.rows()
         with _temporary(path, "w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=COLUMNS)
+            writer = csv.DictWriter(handle, fieldnames=CSV_COLUMNS)
             writer.writeheader()
             for row in rows:
-                writer.writerow({column: row.get(column) for column in COLUMNS})
+                writer.writerow({column: self._stored(row).get(column) for column in CSV_COLUMNS})
         os.replace(handle.name, path)
         return path
+
+
+CSV_COLUMNS = tuple(
+    "hyperparameters_key" if column == "hyperparameters" else column for column in COLUMNS
+)
+"""Columns of ``results.csv``: a row's, the hyper-parameters given by their key."""
+
+
+def hyperparameters_key(hyper: dict[str, Any]) -> str:
+    """The key of ``hyper`` in ``hyperparameters.json``: 12 hex digits of its JSON's SHA-256."""
+    text = json.dumps(hyper, sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
 
 
 def _difference(old: dict[str, Any], new: dict[str, Any]) -> str:

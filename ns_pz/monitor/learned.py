@@ -15,9 +15,24 @@ from ns_pz.observations import monitor_flags_space, monitor_observation_space
 from ns_pz.params import Params
 from ns_pz.seat_policies import (
     call_policy,
+    call_recurrent_policy,
     check_policy,
     check_policy_spaces,
 )
+
+
+class PolicyMonitorMemory:
+    """One episode's memory of a :class:`PolicyMonitor`: its features' and its policy's."""
+
+    __slots__ = ("features", "state", "episode_start")
+
+    def __init__(self, features: Any) -> None:
+        self.features = features
+        """The :class:`~ns_pz.monitor.MonitorFeatures` memory (``None`` without features)."""
+        self.state: Any = None
+        """A recurrent policy's hidden state, as its ``predict`` last returned it."""
+        self.episode_start = True
+        """Whether the policy has not acted yet this episode."""
 
 
 class PolicyMonitor(Monitor):
@@ -33,18 +48,32 @@ class PolicyMonitor(Monitor):
             generator, so one seed reproduces it.
         features: The :class:`~ns_pz.monitor.MonitorFeatures` the policy was trained with (its
             observation then holds the clock and the evidence since its last alarm).
+        recurrent: The policy is a recurrent SB3-style model (sb3-contrib's ``RecurrentPPO``):
+            its hidden state is kept per episode and handed back at every turn, as in training.
 
     Raises:
-        TypeError: ``policy`` cannot act, ``deterministic`` is not a bool, ``features`` is not
-            ``None`` or a :class:`~ns_pz.monitor.MonitorFeatures`.
+        TypeError: ``policy`` cannot act, ``deterministic`` or ``recurrent`` is not a bool,
+            ``features`` is not ``None`` or a :class:`~ns_pz.monitor.MonitorFeatures`, or
+            ``recurrent=True`` for a policy without ``predict``.
     """
 
     def __init__(
-        self, policy: Any, *, deterministic: bool = True, features: MonitorFeatures | None = None
+        self,
+        policy: Any,
+        *,
+        deterministic: bool = True,
+        features: MonitorFeatures | None = None,
+        recurrent: bool = False,
     ) -> None:
         check_policy(policy, "monitor", "PolicyMonitor(policy)")
         if features is not None and not isinstance(features, MonitorFeatures):
             raise TypeError(f"features={features!r} must be None or a MonitorFeatures")
+        self.recurrent = flag("recurrent", recurrent)
+        if recurrent and not callable(getattr(policy, "predict", None)):
+            raise TypeError(
+                f"recurrent=True needs a model with predict(obs, state, episode_start); "
+                f"{policy!r} has no predict"
+            )
         self.policy = policy
         self.deterministic = flag("deterministic", deterministic)
         self.features = features
@@ -96,21 +125,33 @@ class PolicyMonitor(Monitor):
         """
         seen: Any = observation
         if self.features is not None:
-            self.features.update(memory, observation)  # type: ignore[arg-type]
-            seen = self.features.observation(observation, memory)  # type: ignore[arg-type]
-        answer = call_policy(self.policy, seen, deterministic=self.deterministic, rng=rng)
+            self.features.update(memory.features, observation)  # type: ignore[arg-type]
+            seen = self.features.observation(observation, memory.features)  # type: ignore[arg-type]
+        if self.recurrent:
+            answer, memory.state = call_recurrent_policy(
+                self.policy,
+                seen,
+                memory.state,
+                memory.episode_start,
+                deterministic=self.deterministic,
+                rng=rng,
+            )
+            memory.episode_start = False
+        else:
+            answer = call_policy(self.policy, seen, deterministic=self.deterministic, rng=rng)
         flags = as_flags(answer, self._count)
         if flags is None:
             raise ValueError(
                 f"the monitor policy answered {answer!r}; it must give {self._count} flags of 0/1"
             )
         if self.features is not None:
-            self.features.alarmed(memory, flags)
+            self.features.alarmed(memory.features, flags)
         return flags, (0.0,) * self._count
 
-    def initial_memory(self) -> Any:
-        """The features' running statistics (``None`` without features)."""
-        return None if self.features is None else self.features.initial_memory()
+    def initial_memory(self) -> PolicyMonitorMemory:
+        """The features' running statistics and the policy's state, at an episode's start."""
+        features = None if self.features is None else self.features.initial_memory()
+        return PolicyMonitorMemory(features)
 
     def __repr__(self) -> str:
         return f"PolicyMonitor({self.policy!r})"
