@@ -14,7 +14,7 @@ import os
 import signal
 import tempfile
 from abc import ABC, abstractmethod
-from collections.abc import Generator, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing.connection import Connection
@@ -22,31 +22,64 @@ from pathlib import Path
 from typing import Any
 
 import ns_pz
+from ns_pz.agents.learning.trained import Needed
 from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.trials import Trial, error_row, run_trial
+from ns_pz.experiments.work import (
+    Job,
+    Schedule,
+    Trained,
+    Training,
+    install,
+    payload,
+    run_batch,
+    train_and_ship,
+    train_network,
+)
 from ns_pz.workers import die_with_parent, new_pool, stop_pool
 
 BACKENDS = ("local", "ray")
 
 
 class Backend(ABC):
-    """Runs trials and yields ``(trial, row)`` as each finishes."""
+    """Runs trials (after the networks they need) and yields ``(trial, row)`` as each finishes."""
 
     @abstractmethod
-    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
-        """Run every trial; yield each one's row as soon as it is done."""
+    def run(
+        self,
+        spec: ExperimentSpec,
+        trials: Sequence[Trial],
+        training: Training | None = None,
+        on_trained: Callable[[Trained], None] | None = None,
+    ) -> Iterator[tuple[Trial, dict]]:
+        """Run every trial; yield each one's row as soon as it is done.
+
+        Args:
+            spec: The experiment.
+            trials: The trials to run.
+            training: The networks they need (:func:`~ns_pz.experiments.work.plan_training`):
+                the missing ones train first, in parallel, and a trial starts as soon as its
+                own are ready. A trial whose network failed to train is an error row.
+                ``None``: none is trained first.
+            on_trained: Called with each missing network's outcome as it ends.
+        """
 
 
 class LocalBackend(Backend):
-    """A pool of ``workers`` processes on this machine.
+    """A pool of ``workers`` processes on this machine, started once for the run.
+
+    The pool first trains the networks the run is missing, one per worker, single-threaded;
+    trials start as soon as their networks are ready, the others while training goes on. A
+    worker keeps its imports and compiled code from one job to the next, and short trials reach
+    it in batches (:class:`~ns_pz.experiments.work.Batcher`).
 
     Trials never run in the calling process, not even with one worker: a trial that kills its
     process (a crash in compiled code, an out-of-memory kill, an agent's ``os._exit``) must not
     take the run with it. Workers are started with ``spawn`` (no state inherited from the
-    parent) and end themselves if the parent dies. If a worker dies, the trials that were in
-    flight are re-run one at a time, each in a process of its own, so only the one that kills
-    its process again is recorded as an error, with how the process ended; the pool restarts
-    for the rest.
+    parent) and end themselves if the parent dies. If a worker dies, the jobs that were in
+    flight are re-run one trial (or one training) at a time, each in a process of its own, so
+    only the one that kills its process again is recorded as an error, with how the process
+    ended; the pool restarts for the rest.
 
     As with any ``spawn`` pool, a script that runs a spec must do so under
     ``if __name__ == "__main__":`` (each worker imports the script again), and agents it
@@ -60,51 +93,89 @@ class LocalBackend(Backend):
             raise ValueError(f"workers={workers!r} must be an integer >= 1")
         self.workers = workers
 
-    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
+    def run(
+        self,
+        spec: ExperimentSpec,
+        trials: Sequence[Trial],
+        training: Training | None = None,
+        on_trained: Callable[[Trained], None] | None = None,
+    ) -> Iterator[tuple[Trial, dict]]:
         """Run in a process pool; a trial whose process dies becomes an error row."""
-        remaining = list(trials)
-        while remaining:
-            remaining, suspects = yield from self._pool_run(spec, remaining, self.workers)
-            for trial in suspects:  # one at a time, so only the culprit is blamed
-                yield trial, run_alone(spec, trial)
+        schedule = Schedule(spec, trials, training)
+        shown = training is not None and training.shown
+        while not schedule.done:
+            suspects = yield from self._pool_run(spec, schedule, on_trained, shown)
+            for job in suspects:  # one at a time, so only the culprit is blamed
+                if job.need is not None:
+                    result = run_alone_training(job.need)
+                    yield from _finish_training(schedule, result, on_trained)
+                for trial in job.trials:
+                    yield trial, run_alone(spec, trial)
 
     def _pool_run(
-        self, spec: ExperimentSpec, trials: list[Trial], workers: int
-    ) -> Generator[tuple[Trial, dict], None, tuple[list[Trial], list[Trial]]]:
-        """Run until done or the pool breaks.
+        self,
+        spec: ExperimentSpec,
+        schedule: Schedule,
+        on_trained: Callable[[Trained], None] | None,
+        shown: bool,
+    ) -> Generator[tuple[Trial, dict], None, list[Job]]:
+        """Run until ``schedule`` is done or the pool breaks.
 
         Returns:
-            ``(not started, in flight when the pool broke)``: both empty after a clean run.
+            The jobs in flight when the pool broke (empty after a clean run).
         """
         started = multiprocessing.get_context("spawn").Event()
-        pool = new_pool(workers, started)
-        pending: dict[Future[dict], Trial] = {}
-        queue = list(reversed(trials))
+        pool = new_pool(self.workers, started)
+        pending: dict[Future[Any], Job] = {}
         clean = False
         try:
-            while queue or pending:
+            while True:
                 broken = False
-                while queue and len(pending) < 2 * workers and not broken:
+                while len(pending) < 2 * self.workers and not broken:
+                    job = schedule.next_job()
+                    if job is None:
+                        break
                     try:
-                        pending[pool.submit(run_trial, spec, queue[-1])] = queue[-1]
-                        queue.pop()
+                        if job.need is not None:
+                            future = pool.submit(train_network, job.need, shown)
+                        else:
+                            future = pool.submit(run_batch, spec, job.trials)
+                        pending[future] = job
                     except BrokenProcessPool:
+                        schedule.put_back(job)
                         broken = True
-                done, _ = wait(pending, return_when=FIRST_COMPLETED) if pending else (set(), set())
+                if not pending:
+                    break
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 for future in done:
                     if isinstance(future.exception(), BrokenProcessPool):
                         broken = True
                         continue
-                    yield pending.pop(future), future.result()
+                    job = pending.pop(future)
+                    if job.need is not None:
+                        yield from _finish_training(schedule, future.result(), on_trained)
+                        continue
+                    for trial, row in zip(job.trials, future.result(), strict=True):
+                        schedule.finished(trial, row)
+                        yield trial, row
                 if broken:
                     if not started.is_set():
                         raise RuntimeError(_CANNOT_START.format(how="before they started"))
-                    # A worker died: which in-flight trial killed it cannot be known here.
-                    return list(reversed(queue)), list(pending.values())
+                    # A worker died: which in-flight job killed it cannot be known here.
+                    return list(pending.values())
             clean = True
         finally:
             stop_pool(pool, clean)  # interrupted or broken: the workers stop now
-        return [], []
+        return []
+
+
+def _finish_training(
+    schedule: Schedule, result: Trained, on_trained: Callable[[Trained], None] | None
+) -> Iterator[tuple[Trial, dict]]:
+    """Report a network's outcome and yield the error rows of its trials if it failed."""
+    if on_trained is not None:
+        on_trained(result)
+    yield from schedule.trained(result)
 
 
 def run_alone(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
@@ -112,19 +183,39 @@ def run_alone(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
 
     The error row says how the process ended (the signal that killed it, or its exit code).
     """
+    row, exitcode = _in_own_process(run_trial, spec, trial)
+    if row is None:
+        return error_row(spec, trial, died_message(exitcode))
+    return row
+
+
+def run_alone_training(need: Needed) -> Trained:
+    """Get one network in a fresh process of its own; a failure if that process died."""
+    result, exitcode = _in_own_process(train_network, need)
+    if result is None:
+        return Trained(need.request.key, need.label, 0.0, False, died_message(exitcode))
+    return result
+
+
+def _in_own_process(function: Callable[..., Any], *args: Any) -> tuple[Any, int | None]:
+    """``function(*args)`` in a fresh spawned process: ``(result or None if it died, exit code)``.
+
+    Raises:
+        RuntimeError: The process ended before it started (see :data:`_CANNOT_START`).
+    """
     context = multiprocessing.get_context("spawn")
     receiver, sender = context.Pipe(duplex=False)
     process = context.Process(
-        target=_run_and_send, args=(spec, trial, sender, os.getpid()), daemon=True
+        target=_call_and_send, args=(function, args, sender, os.getpid()), daemon=True
     )
     process.start()
     sender.close()  # the child holds the only writing end: EOF when it dies
     clean = False
     try:
-        started = row = None
+        started = result = None
         with contextlib.suppress(EOFError):
             started = receiver.recv()
-            row = receiver.recv()
+            result = receiver.recv()
         process.join()
         clean = True
     finally:
@@ -135,9 +226,7 @@ def run_alone(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
     if started is None:
         how = f"before it started ({_how_it_ended(process.exitcode)})"
         raise RuntimeError(_CANNOT_START.format(how=how))
-    if row is None:
-        return error_row(spec, trial, died_message(process.exitcode))
-    return row
+    return result, process.exitcode
 
 
 _CANNOT_START = (
@@ -147,11 +236,13 @@ _CANNOT_START = (
 )
 
 
-def _run_and_send(spec: ExperimentSpec, trial: Trial, sender: Connection, parent: int) -> None:
-    """Child of :func:`run_alone`: say it started, run the trial, send its row back."""
+def _call_and_send(
+    function: Callable[..., Any], args: tuple[Any, ...], sender: Connection, parent: int
+) -> None:
+    """Child of :func:`_in_own_process`: say it started, call ``function``, send its result."""
     die_with_parent(parent)
     sender.send("started")
-    sender.send(run_trial(spec, trial))
+    sender.send(function(*args))
     sender.close()
 
 
@@ -189,25 +280,62 @@ class RayBackend(Backend):
         self.workers = workers
         self.address = address
 
-    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
-        """Submit every trial, yield rows as tasks finish."""
+    def run(
+        self,
+        spec: ExperimentSpec,
+        trials: Sequence[Trial],
+        training: Training | None = None,
+        on_trained: Callable[[Trained], None] | None = None,
+    ) -> Iterator[tuple[Trial, dict]]:
+        """Train the missing networks as tasks, then each trial as a task once its are ready.
+
+        A trial task takes its networks as arguments, so Ray starts it only once they exist and
+        sends them to the node that runs it; there they are put in that node's cache unless it
+        has them. A task whose worker process dies is run again by Ray (up to three times), so
+        a lost worker neither loses nor repeats a row.
+        """
         try:
             import ray
         except ImportError:
             raise RuntimeError(
                 'the ray backend needs Ray: pip install "ns_pz[ray]" (or use --backend local)'
             ) from None
+        training = training or Training()
         started_here = not ray.is_initialized()
         if started_here:
             with _away_from_a_shadowing_checkout():
                 self._init(ray)
         try:
-            remote = ray.remote(run_trial)
+            train = ray.remote(num_returns=2, max_retries=3)(train_and_ship)
+            play = ray.remote(max_retries=3)(_play_with)
             spec_ref = ray.put(spec)
-            pending = {remote.remote(spec_ref, trial): trial for trial in trials}
-            while pending:
-                done, _ = ray.wait(list(pending), num_returns=1)
+            networks: dict[str, Any] = {}
+            trainings: dict[Any, Needed] = {}
+            for key, need in training.networks.items():
+                if key in training.missing:
+                    outcome, networks[key] = train.remote(need)
+                    trainings[outcome] = need
+                else:  # cached here: sent to the nodes that run its trials
+                    networks[key] = ray.put(payload(need.request))
+            pending = {
+                play.remote(
+                    spec_ref, trial, *(networks[k] for k in sorted(training.waits_for(trial)))
+                ): trial
+                for trial in trials
+            }
+            while pending or trainings:
+                done, _ = ray.wait([*trainings, *pending], num_returns=1)
                 for ref in done:
+                    if ref in trainings:
+                        need = trainings.pop(ref)
+                        try:
+                            result = ray.get(ref)
+                        except Exception as error:  # noqa: BLE001 - a lost worker or node
+                            message = f"Ray task failed: {error}"
+                            result = Trained(need.request.key, need.label, 0.0, False, message)
+                        if on_trained is not None:
+                            on_trained(result)
+                        continue
                     trial = pending.pop(ref)
                     try:
                         row = ray.get(ref)
@@ -225,6 +353,18 @@ class RayBackend(Backend):
             ray.init(log_to_driver=False)
         else:
             ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False)
+
+
+def _play_with(spec: ExperimentSpec, trial: Trial, *networks: Any) -> dict[str, Any]:
+    """A Ray task: cache the trial's networks on this node if missing, then play the trial.
+
+    A network that failed to train arrives as the text saying why: the trial's error.
+    """
+    for network in networks:
+        if isinstance(network, str):
+            return error_row(spec, trial, network)
+    install(networks)
+    return run_batch(spec, [trial])[0]
 
 
 @contextlib.contextmanager

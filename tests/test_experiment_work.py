@@ -1,0 +1,185 @@
+"""A run's work: networks before the trials that need them, batches of short trials."""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from pathlib import Path
+
+import pytest
+
+from ns_pz.experiments import LocalBackend, expand, load_spec
+from ns_pz.experiments.work import Batcher, Job, Schedule, Trained, Training, plan_training
+
+TINY = """
+version = 1
+name = "tiny"
+title = "tiny FrozenLake"
+env = "ns_pz/FrozenLake-v0"
+params = { slip = 0.7 }
+notifications = ["detailed", "none"]
+
+[change]
+kind = "single"
+param = "slip"
+first_step = 1
+to = [0.4]
+
+[sizes.quick]
+episodes = 3
+horizon = 20
+
+[[agents]]
+name = "random"
+
+[[agents]]
+name = "value_iteration"
+label = "VI"
+"""
+"""12 trials: 1 setting × 2 levels × 2 agents × 3 seeds."""
+
+
+@pytest.fixture
+def tiny(tmp_path: Path):
+    """The TINY spec, loaded."""
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return load_spec(path, "quick")
+
+
+# -- batches -----------------------------------------------------------------------------------
+def test_a_batch_grows_to_the_target_time_of_its_agent() -> None:
+    """First one trial (nothing known), then as many as fit in the target, at most ``most``."""
+    batcher = Batcher(target=0.2, most=16)
+    assert batcher.size("a") == 1
+    batcher.record("a", 0.01)
+    batcher.record("a", 0.03)
+    assert batcher.size("a") == 10  # 0.2 s / 0.02 s
+    batcher.record("b", 1e-6)
+    assert batcher.size("b") == 16
+    batcher.record("c", 5.0)
+    assert batcher.size("c") == 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"), [({"target": 0}, "target=0 must be > 0"), ({"most": 0}, "most=0")]
+)
+def test_a_batcher_refuses_bad_settings(kwargs: dict, match: str) -> None:
+    """Settings out of range name the parameter and its value."""
+    with pytest.raises(ValueError, match=match):
+        Batcher(**kwargs)
+
+
+def test_a_batch_holds_one_agent_only(tiny) -> None:
+    """A batch ends where the next trial is another agent's, whatever the size allows."""
+    trials = expand(tiny)
+    batcher = Batcher(target=1.0)
+    for trial in trials:
+        batcher.record(trial.agent.label, 0.001)
+    ready = deque(trials)
+    batches = []
+    while ready:
+        batches.append(batcher.take(ready))
+    assert [t for batch in batches for t in batch] == trials
+    assert all(len({t.agent.label for t in batch}) == 1 for batch in batches)
+    assert [len(batch) for batch in batches] == [3, 3, 3, 3]
+
+
+# -- the schedule ----------------------------------------------------------------------------
+def _fake_training(tiny, label: str) -> Training:
+    """Pretend the agent ``label`` needs one missing network (borrowed from a real need)."""
+    from ns_pz.agents.learning.config import DDQNArgs
+    from ns_pz.agents.learning.trained import ddqn_needed
+
+    need = ddqn_needed(tiny.make_env(tiny.cells()[0]), DDQNArgs(total_steps=10))
+    key = need.request.key
+    return Training({key: need}, (key,), {label: frozenset({key})})
+
+
+def test_networks_start_first_and_their_trials_wait_for_them(tiny) -> None:
+    """The missing network is the first job; VI's trials start only once it is trained."""
+    training = _fake_training(tiny, "VI")
+    schedule = Schedule(tiny, expand(tiny), training)
+    first = schedule.next_job()
+    assert first is not None and first.need is training.networks[training.missing[0]]
+    started = []
+    while (job := schedule.next_job()) is not None:
+        started.extend(job.trials)
+    assert started and {t.agent.label for t in started} == {"random"}
+    assert not schedule.done
+    key = training.missing[0]
+    assert schedule.trained(Trained(key, "net", 1.0, True)) == []
+    while (job := schedule.next_job()) is not None:
+        started.extend(job.trials)
+    assert sorted(t.key for t in started) == sorted(t.key for t in expand(tiny))
+    assert schedule.done
+
+
+def test_the_trials_of_a_network_that_failed_become_error_rows(tiny) -> None:
+    """A failed training names the network and its error in each of its trials' rows."""
+    training = _fake_training(tiny, "VI")
+    schedule = Schedule(tiny, expand(tiny), training)
+    schedule.next_job()
+    rows = schedule.trained(Trained(training.missing[0], "DDQN net", 1.0, False, "OSError: x"))
+    assert len(rows) == 6 and {t.agent.label for t, _ in rows} == {"VI"}
+    assert all(r["status"] == "error" for _, r in rows)
+    assert "its network DDQN net could not be trained: OSError: x" in rows[0][1]["error"]
+
+
+def test_a_job_put_back_comes_first_again(tiny) -> None:
+    """A job handed back (its pool broke before it began) is the next one out."""
+    schedule = Schedule(tiny, expand(tiny))
+    job = schedule.next_job()
+    assert job is not None and job.trials
+    schedule.next_job()
+    schedule.put_back(job)
+    assert schedule.next_job() == Job(trials=job.trials)
+
+
+def test_a_spec_without_learners_trains_nothing(tiny) -> None:
+    """No learning agent: no network, nothing waits."""
+    training = plan_training(tiny, expand(tiny))
+    assert (dict(training.networks), training.missing) == ({}, ())
+
+
+# -- in a pool ---------------------------------------------------------------------------------
+LEARNER = """
+[[agents]]
+name = "ddqn"
+label = "DDQN"
+notifications = ["none"]
+params = { total_steps = 1500, learning_starts = 100 }
+
+[[agents]]
+name = "alphazero"
+label = "AZ"
+notifications = ["none"]
+params = { episodes = 2, iterations = 8, max_episode_steps = 20 }
+"""
+
+
+def test_networks_train_side_by_side_while_other_trials_run(tmp_path: Path, monkeypatch) -> None:
+    """Two networks on three workers train at once; trials needing none run on the third."""
+    pytest.importorskip("torch")
+    monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "learners.toml"
+    path.write_text(TINY + LEARNER)
+    experiment = load_spec(path, "quick")
+    trials = expand(experiment)
+    training = plan_training(experiment, trials)
+    assert len(training.missing) == 2
+    events: list[tuple[str, float, object]] = []
+    backend = LocalBackend(3)
+    on_trained = lambda result: events.append(("net", time.monotonic(), result))  # noqa: E731
+    for trial, row in backend.run(experiment, trials, training, on_trained):
+        assert row["status"] == "ok", row["error"]
+        events.append((trial.agent.label, time.monotonic(), row))
+    nets = [(at, result) for kind, at, result in events if kind == "net"]
+    assert [result.trained for _, result in nets] == [True, True]
+    (first_end, _), (second_end, second) = nets
+    assert second_end - second.seconds < first_end  # the second started before the first ended
+    order = [kind for kind, _, _ in events]
+    assert order.index("random") < order.index("net")  # no network needed: ran meanwhile
+    assert order.index("DDQN") > order.index("net")
+    assert len(order) == len(trials) + 2
+    assert len({row["trial"] for kind, _, row in events if kind != "net"}) == len(trials)
