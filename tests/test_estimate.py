@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import os
 from pathlib import Path
 
 import pytest
@@ -69,8 +70,10 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
     assert main(argv, lines.append) == 0
     assert lines[0].startswith("estimate: 0 network(s) to train")
     assert "8 agent x cell group(s), up to 1 seed(s) each within 1 s per group" in lines[0]
-    assert "projected wall time on 2 worker(s)" in lines[-1]
-    assert "at this machine's present load;" in lines[-1] and "on idle cores" in lines[-1]
+    assert lines[-3].startswith("projected (specs one after the other; a worker starts in ")
+    assert lines[-2].startswith("  on 2 worker(s), idle cores (from CPU time): no network")
+    assert "48 trials" in lines[-2] and "wall " in lines[-2]
+    assert lines[-1].startswith(f"  on this machine ({os.cpu_count()} cores) at its present load")
     with pytest.raises(ValueError, match="samples=0 must be >= 1"):
         estimate(experiment, samples=0)
     with pytest.raises(ValueError, match="cell_seconds=0 must be >= 0.001"):

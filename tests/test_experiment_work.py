@@ -183,3 +183,41 @@ def test_networks_train_side_by_side_while_other_trials_run(tmp_path: Path, monk
     assert order.index("DDQN") > order.index("net")
     assert len(order) == len(trials) + 2
     assert len({row["trial"] for kind, _, row in events if kind != "net"}) == len(trials)
+
+
+# -- projecting a run's time -------------------------------------------------------------------
+def test_a_projection_trains_first_and_starts_trials_as_their_networks_land() -> None:
+    """Two networks (10 s, 4 s) on two workers; trials needing the short one fill in behind it."""
+    from ns_pz.experiments.projection import GroupTime, project
+
+    networks = [("short", 4.0), ("long", 10.0)]
+    groups = [
+        GroupTime(1.0, 6, frozenset({"short"})),  # 6 s of work, ready at 4 s
+        GroupTime(2.0, 1, frozenset({"long"})),  # ready at 10 s
+    ]
+    two = project(networks, groups, workers=2)
+    assert (two.networks, two.training_seconds, two.networks_ready) == (2, 14.0, 10.0)
+    assert (two.trials, two.trial_seconds) == (7, 8.0)
+    assert two.wall == 12.0  # the short trials end at 10 s, the long one at 10 + 2
+    one = project(networks, groups, workers=1, startup=3.0)
+    assert one.wall == 3.0 + 14.0 + 8.0  # all in a row, after the start-up
+    wide = project([], [GroupTime(1.0, 160)], workers=16, startup=2.0)
+    assert wide.wall == 12.0 and "no network to train" in wide.text()
+    with pytest.raises(ValueError, match="workers=0 must be an integer >= 1"):
+        project([], [], workers=0)
+
+
+def test_a_long_run_is_forecast_once_every_agent_and_cell_has_a_time(tiny) -> None:
+    """Each group's first trial goes first; after the last group's first row, one projection."""
+    from ns_pz.experiments.projection import Forecast, samples_first
+
+    trials = samples_first(expand(tiny))
+    assert [t.seed for t in trials[:4]] == [0, 0, 0, 0]  # 4 groups: one seed of each first
+    assert sorted(t.key for t in trials) == sorted(t.key for t in expand(tiny))
+    forecast = Forecast(trials, workers=2, long=10.0)
+    said = [forecast.add(trial, {"wall_time": 5.0}) for trial in trials]
+    assert said[:3] == [None] * 3 and all(s is None for s in said[4:])
+    assert said[3] is not None and "the other 8 trials take 40 s of work" in said[3]
+    assert "on 2 worker(s) at this machine's present load, wall 20 s more" in said[3]
+    short = Forecast(trials, workers=2, long=10.0)  # 8 × 0.1 s left: not a long run
+    assert not any(short.add(trial, {"wall_time": 0.1}) for trial in trials)

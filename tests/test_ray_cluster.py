@@ -153,7 +153,9 @@ def test_a_worker_killed_mid_run_loses_and_repeats_nothing(
 
     argv = [sys.executable, "-m", "ns_pz.cli", "bench", "run", str(path), "--backend", "ray"]
     argv += ["--address", cluster.address, "--out", str(tmp_path / "ray")]
-    driver = subprocess.Popen(argv, env=cluster.env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+    driver = subprocess.Popen(
+        argv, env=cluster.env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT
+    )
     killer = threading.Thread(target=kill_one_worker, daemon=True)
     killer.start()
     try:

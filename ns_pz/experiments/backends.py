@@ -136,6 +136,7 @@ class LocalBackend(Backend):
                     if job is None:
                         break
                     try:
+                        future: Future[Any]
                         if job.need is not None:
                             future = pool.submit(train_network, job.need, shown)
                         else:
@@ -291,7 +292,7 @@ class RayBackend(Backend):
 
         A trial task takes its networks as arguments, so Ray starts it only once they exist and
         sends them to the node that runs it; there they are put in that node's cache unless it
-        has them. A task whose worker process dies is run again by Ray (up to three times), so
+        has them (and each trained one in this machine's cache too). A task whose worker process dies is run again by Ray (up to three times), so
         a lost worker neither loses nor repeats a row.
         """
         try:
@@ -306,7 +307,7 @@ class RayBackend(Backend):
             with _away_from_a_shadowing_checkout():
                 self._init(ray)
         try:
-            train = ray.remote(num_returns=2, max_retries=3)(train_and_ship)
+            train: Any = ray.remote(num_returns=2, max_retries=3)(train_and_ship)
             play = ray.remote(max_retries=3)(_play_with)
             spec_ref = ray.put(spec)
             networks: dict[str, Any] = {}
@@ -333,6 +334,8 @@ class RayBackend(Backend):
                         except Exception as error:  # noqa: BLE001 - a lost worker or node
                             message = f"Ray task failed: {error}"
                             result = Trained(need.request.key, need.label, 0.0, False, message)
+                        if not result.error:  # kept here too: a later run here finds it
+                            install([ray.get(networks[need.request.key])])
                         if on_trained is not None:
                             on_trained(result)
                         continue

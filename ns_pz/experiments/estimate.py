@@ -22,9 +22,11 @@ from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -40,9 +42,11 @@ from ns_pz.agents.learning.artefacts import (
 )
 from ns_pz.agents.learning.trained import Needed, torch_module
 from ns_pz.experiments.progress import Progress
+from ns_pz.experiments.projection import GroupTime, combined, project
 from ns_pz.experiments.runner import needed_networks
 from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
 from ns_pz.experiments.trials import Trial, expand
+from ns_pz.experiments.work import plan_training
 
 CELL_SECONDS = 1.0
 """Default cap on the seconds spent timing one agent in one cell (all its sampled seeds)."""
@@ -401,3 +405,65 @@ def _time_trial(
     wall = (first[0] - wall0) + (wall2 - first[0]) * scale
     cpu = (first[1] - cpu0) + (cpu2 - first[1]) * scale
     return wall, cpu, cut
+
+
+def worker_startup() -> float:
+    """Seconds a fresh worker process takes to start and import what trials need, measured."""
+    start = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-c", "import ns_pz.experiments.work"], check=True, capture_output=True
+    )
+    return time.perf_counter() - start
+
+
+def projection_lines(
+    specs: Sequence[ExperimentSpec],
+    networks: Sequence[TrainingCost],
+    costs: Mapping[str, Sequence[CellCost]],
+    workers: int,
+    startup: float | None = None,
+) -> list[str]:
+    """The run's projected time on ``workers`` workers and on this machine, as text.
+
+    Training and trials are given apart (:func:`~ns_pz.experiments.projection.project`). Specs
+    run one after the other, each with its own workers; a network several share is trained by
+    the first. On ``workers`` workers the trials take their CPU time (idle cores); on this
+    machine's cores, their wall time as measured (its present load).
+
+    Args:
+        specs: The experiments, in the order they run.
+        networks: What :func:`estimate_training` gave (cached ones cost nothing).
+        costs: Spec name → what :func:`estimate` gave.
+        workers: Worker processes to project for.
+        startup: Seconds a worker takes to start (``None``: measured, :func:`worker_startup`).
+    """
+    here = os.cpu_count() or 1
+    startup = worker_startup() if startup is None else startup
+    scenarios = [(f"on {workers} worker(s), idle cores (from CPU time)", workers, True)]
+    scenarios.append((f"on this machine ({here} cores) at its present load", here, False))
+    lines = [
+        f"projected (specs one after the other; a worker starts in {startup:.1f} s, then trains "
+        "or plays; a trial waits only for its own networks):"
+    ]
+    for label, count, cpu in scenarios:
+        to_train = {n.key: n.seconds for n in networks if not n.cached}
+        parts = []
+        for spec in specs:
+            requires = plan_training(spec, expand(spec)).requires
+            mine = {
+                key: to_train.pop(key)
+                for label_keys in requires.values()
+                for key in label_keys
+                if key in to_train
+            }
+            groups = [
+                GroupTime(
+                    cost.cpu_seconds_per_trial if cpu else cost.seconds_per_trial,
+                    cost.trials,
+                    requires.get(cost.agent, frozenset()) & set(mine),
+                )
+                for cost in costs.get(spec.name, ())
+            ]
+            parts.append(project(list(mine.items()), groups, count, startup))
+        lines.append(f"  {label}: {combined(parts).text()}")
+    return lines

@@ -13,6 +13,7 @@ from ns_pz.agents.learning.trained import Needed, prepare
 from ns_pz.experiments.backends import Backend
 from ns_pz.experiments.lock import locked
 from ns_pz.experiments.progress import Progress
+from ns_pz.experiments.projection import Forecast, samples_first
 from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.store import ResultStore
 from ns_pz.experiments.trials import Trial, expand
@@ -54,6 +55,9 @@ def run_spec(
     need and the cache lacks are trained by ``backend``'s workers, in parallel, and each trial
     starts as soon as its own networks are ready (:mod:`ns_pz.experiments.work`). Trials run in
     worker processes (see ``backend``); one whose process dies is recorded as an error row.
+    Each agent × cell plays its first trial early; once all have, a run with more than a
+    minute left says on ``progress`` how long the rest should take
+    (:class:`~ns_pz.experiments.projection.Forecast`).
 
     Raises:
         SpecError: ``out`` holds results of another spec, or of this one without ``resume``.
@@ -77,18 +81,24 @@ def run_spec(
             label = f"{spec.name} ({spec.size})"
             bar = Progress(len(trials), len(trials) - len(todo), label, progress)
 
-        def on_trained(result: Trained) -> None:
-            if progress is None:
-                return
-            if result.error:
-                progress.write(f"training {result.label} failed: {result.error}\n")
-            elif result.trained:
-                progress.write(f"trained {result.label} in {result.seconds:.1f} s\n")
+        def note(text: str) -> None:
+            if bar is not None:
+                bar.note(text)
 
+        def on_trained(result: Trained) -> None:
+            if result.error:
+                note(f"training {result.label} failed: {result.error}")
+            elif result.trained:
+                note(f"trained {result.label} in {result.seconds:.1f} s")
+
+        forecast = Forecast(todo, getattr(backend, "workers", 1))
         failed = 0
         try:
-            for _, row in backend.run(spec, todo, training, on_trained):
+            for trial, row in backend.run(spec, samples_first(todo), training, on_trained):
                 store.write(row)
+                said = forecast.add(trial, row)
+                if said is not None:
+                    note(said)
                 ok = row["status"] == "ok"
                 failed += not ok
                 if bar is not None:

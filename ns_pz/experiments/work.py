@@ -58,9 +58,7 @@ class Training:
         return self.requires.get(trial.agent.label, frozenset())
 
 
-def plan_training(
-    spec: ExperimentSpec, trials: Sequence[Trial], shown: bool = False
-) -> Training:
+def plan_training(spec: ExperimentSpec, trials: Sequence[Trial], shown: bool = False) -> Training:
     """The networks ``trials`` need; those not cached now are to be trained, largest first.
 
     Largest first (by steps or episodes of training) so the longest training starts at once
