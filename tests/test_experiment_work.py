@@ -126,14 +126,28 @@ def test_the_trials_of_a_network_that_failed_become_error_rows(tiny) -> None:
     assert "its network DDQN net could not be trained: OSError: x" in rows[0][1]["error"]
 
 
-def test_a_job_put_back_comes_first_again(tiny) -> None:
-    """A job handed back (its pool broke before it began) is the next one out."""
+def test_a_worker_gets_more_of_the_agent_it_has_played(tiny) -> None:
+    """First one trial of each agent × cell; then a worker keeps to the agent it knows."""
     schedule = Schedule(tiny, expand(tiny))
-    job = schedule.next_job()
-    assert job is not None and job.trials
-    schedule.next_job()
-    schedule.put_back(job)
-    assert schedule.next_job() == Job(trials=job.trials)
+    samples = [schedule.next_job(), schedule.next_job(), schedule.next_job()]
+    assert all(job is not None and len(job.trials) == 1 for job in samples)
+    assert {job.trials[0].seed for job in samples if job} == {0}
+    last = schedule.next_job(warm={"VI"})  # the last sample left is VI's: it goes to VI's worker
+    assert last is not None and last.trials[0].agent.label == "VI"
+    job = schedule.next_job(warm={"VI"})
+    assert job is not None and {t.agent.label for t in job.trials} == {"VI"}
+    job = schedule.next_job(warm=set(), warm_counts={"VI": 1})  # a fresh worker: the other agent
+    assert job is not None and {t.agent.label for t in job.trials} == {"random"}
+
+
+def test_a_batch_whose_worker_died_plays_again_one_by_one(tiny) -> None:
+    """Trials handed back after their worker died come next, each in a job of its own."""
+    schedule = Schedule(tiny, expand(tiny))
+    first = schedule.next_job()
+    assert first is not None
+    again = list(expand(tiny)[4:6])
+    schedule.retry_alone(again)
+    assert [schedule.next_job(), schedule.next_job()] == [Job(trials=(t,)) for t in again]
 
 
 def test_a_spec_without_learners_trains_nothing(tiny) -> None:

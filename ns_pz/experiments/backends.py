@@ -9,22 +9,19 @@ extra (``pip install "ns_pz[ray]"``) and is imported only when chosen.
 from __future__ import annotations
 
 import contextlib
-import multiprocessing
 import os
-import signal
 import tempfile
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Generator, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, wait
-from concurrent.futures.process import BrokenProcessPool
-from multiprocessing.connection import Connection
+from collections import Counter
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import ns_pz
 from ns_pz.agents.learning.trained import Needed
+from ns_pz.experiments.pool import Outcome, Pool, how_it_ended
 from ns_pz.experiments.spec import ExperimentSpec
-from ns_pz.experiments.trials import Trial, error_row, run_trial
+from ns_pz.experiments.trials import Trial, error_row
 from ns_pz.experiments.work import (
     Job,
     Schedule,
@@ -36,7 +33,6 @@ from ns_pz.experiments.work import (
     train_and_ship,
     train_network,
 )
-from ns_pz.workers import die_with_parent, new_pool, stop_pool
 
 BACKENDS = ("local", "ray")
 
@@ -70,16 +66,16 @@ class LocalBackend(Backend):
 
     The pool first trains the networks the run is missing, one per worker, single-threaded;
     trials start as soon as their networks are ready, the others while training goes on. A
-    worker keeps its imports and compiled code from one job to the next, and short trials reach
-    it in batches (:class:`~ns_pz.experiments.work.Batcher`).
+    worker keeps its imports and compiled code from one job to the next and is given more of
+    the agent it has already played where it can (see :class:`~ns_pz.experiments.work.Schedule`),
+    and short trials reach it in batches (:class:`~ns_pz.experiments.work.Batcher`).
 
     Trials never run in the calling process, not even with one worker: a trial that kills its
     process (a crash in compiled code, an out-of-memory kill, an agent's ``os._exit``) must not
     take the run with it. Workers are started with ``spawn`` (no state inherited from the
-    parent) and end themselves if the parent dies. If a worker dies, the jobs that were in
-    flight are re-run one trial (or one training) at a time, each in a process of its own, so
-    only the one that kills its process again is recorded as an error, with how the process
-    ended; the pool restarts for the rest.
+    parent) and end themselves if the parent dies. A worker that dies is replaced; the trial it
+    was playing is recorded as an error saying how the process ended (a batch's trials are each
+    played again on their own first, so only the one that kills its process is blamed).
 
     As with any ``spawn`` pool, a script that runs a spec must do so under
     ``if __name__ == "__main__":`` (each worker imports the script again), and agents it
@@ -103,131 +99,65 @@ class LocalBackend(Backend):
         """Run in a process pool; a trial whose process dies becomes an error row."""
         schedule = Schedule(spec, trials, training)
         shown = training is not None and training.shown
-        while not schedule.done:
-            suspects = yield from self._pool_run(spec, schedule, on_trained, shown)
-            for job in suspects:  # one at a time, so only the culprit is blamed
-                if job.need is not None:
-                    result = run_alone_training(job.need)
-                    yield from _finish_training(schedule, result, on_trained)
-                for trial in job.trials:
-                    yield trial, run_alone(spec, trial)
-
-    def _pool_run(
-        self,
-        spec: ExperimentSpec,
-        schedule: Schedule,
-        on_trained: Callable[[Trained], None] | None,
-        shown: bool,
-    ) -> Generator[tuple[Trial, dict], None, list[Job]]:
-        """Run until ``schedule`` is done or the pool breaks.
-
-        Returns:
-            The jobs in flight when the pool broke (empty after a clean run).
-        """
-        started = multiprocessing.get_context("spawn").Event()
-        pool = new_pool(self.workers, started)
-        pending: dict[Future[Any], Job] = {}
+        if schedule.done:
+            return
+        pool = Pool(self.workers, _CANNOT_START)
         clean = False
         try:
             while True:
-                broken = False
-                while len(pending) < 2 * self.workers and not broken:
-                    job = schedule.next_job()
-                    if job is None:
-                        break
-                    try:
-                        future: Future[Any]
-                        if job.need is not None:
-                            future = pool.submit(train_network, job.need, shown)
-                        else:
-                            future = pool.submit(run_batch, spec, job.trials)
-                        pending[future] = job
-                    except BrokenProcessPool:
-                        schedule.put_back(job)
-                        broken = True
-                if not pending:
+                _hand_out(pool, schedule, spec, shown)
+                if not pool.busy:
+                    if not schedule.done:  # every trial left waits for a network none trains
+                        raise RuntimeError("the schedule stalled with trials left (a bug)")
                     break
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    if isinstance(future.exception(), BrokenProcessPool):
-                        broken = True
-                        continue
-                    job = pending.pop(future)
-                    if job.need is not None:
-                        yield from _finish_training(schedule, future.result(), on_trained)
-                        continue
-                    for trial, row in zip(job.trials, future.result(), strict=True):
-                        schedule.finished(trial, row)
-                        yield trial, row
-                if broken:
-                    if not started.is_set():
-                        raise RuntimeError(_CANNOT_START.format(how="before they started"))
-                    # A worker died: which in-flight job killed it cannot be known here.
-                    return list(pending.values())
+                for outcome in pool.wait():
+                    yield from _collect(spec, schedule, outcome, on_trained)
             clean = True
         finally:
-            stop_pool(pool, clean)  # interrupted or broken: the workers stop now
-        return []
+            pool.close(clean)  # interrupted: the workers stop now
 
 
-def _finish_training(
-    schedule: Schedule, result: Trained, on_trained: Callable[[Trained], None] | None
+def _hand_out(pool: Pool, schedule: Schedule, spec: ExperimentSpec, shown: bool) -> None:
+    """Give each idle worker its next job, while there is one."""
+    counts = Counter(label for worker in pool.workers for label in worker.warm)
+    for worker in pool.idle():
+        job = schedule.next_job(worker.warm, counts)
+        if job is None:
+            return
+        if job.need is not None:
+            pool.submit(worker, job, train_network, job.need, shown)
+            continue
+        pool.submit(worker, job, run_batch, spec, job.trials)
+        label = job.trials[0].agent.label
+        if label not in worker.warm:
+            worker.warm.add(label)
+            counts[label] += 1
+
+
+def _collect(
+    spec: ExperimentSpec,
+    schedule: Schedule,
+    outcome: Outcome,
+    on_trained: Callable[[Trained], None] | None,
 ) -> Iterator[tuple[Trial, dict]]:
-    """Report a network's outcome and yield the error rows of its trials if it failed."""
-    if on_trained is not None:
-        on_trained(result)
-    yield from schedule.trained(result)
-
-
-def run_alone(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
-    """Run one trial in a fresh process of its own; its row, or an error row if it died.
-
-    The error row says how the process ended (the signal that killed it, or its exit code).
-    """
-    row, exitcode = _in_own_process(run_trial, spec, trial)
-    if row is None:
-        return error_row(spec, trial, died_message(exitcode))
-    return row
-
-
-def run_alone_training(need: Needed) -> Trained:
-    """Get one network in a fresh process of its own; a failure if that process died."""
-    result, exitcode = _in_own_process(train_network, need)
-    if result is None:
-        return Trained(need.request.key, need.label, 0.0, False, died_message(exitcode))
-    return result
-
-
-def _in_own_process(function: Callable[..., Any], *args: Any) -> tuple[Any, int | None]:
-    """``function(*args)`` in a fresh spawned process: ``(result or None if it died, exit code)``.
-
-    Raises:
-        RuntimeError: The process ended before it started (see :data:`_CANNOT_START`).
-    """
-    context = multiprocessing.get_context("spawn")
-    receiver, sender = context.Pipe(duplex=False)
-    process = context.Process(
-        target=_call_and_send, args=(function, args, sender, os.getpid()), daemon=True
-    )
-    process.start()
-    sender.close()  # the child holds the only writing end: EOF when it dies
-    clean = False
-    try:
-        started = result = None
-        with contextlib.suppress(EOFError):
-            started = receiver.recv()
-            result = receiver.recv()
-        process.join()
-        clean = True
-    finally:
-        receiver.close()
-        if not clean:  # interrupted: the child stops now
-            process.terminate()
-            process.join()
-    if started is None:
-        how = f"before it started ({_how_it_ended(process.exitcode)})"
-        raise RuntimeError(_CANNOT_START.format(how=how))
-    return result, process.exitcode
+    """The rows of one ended job (error rows if its worker died)."""
+    job: Job = outcome.job
+    if job.need is not None:
+        result = outcome.result
+        if outcome.died:
+            message = died_message(outcome.exitcode)
+            result = Trained(job.need.request.key, job.need.label, 0.0, False, message)
+        if on_trained is not None:
+            on_trained(result)
+        yield from schedule.trained(result)
+    elif not outcome.died:
+        for trial, row in zip(job.trials, outcome.result, strict=True):
+            schedule.finished(trial, row)
+            yield trial, row
+    elif len(job.trials) == 1:
+        yield job.trials[0], error_row(spec, job.trials[0], died_message(outcome.exitcode))
+    else:  # which of them killed it cannot be known: each plays again on its own
+        schedule.retry_alone(job.trials)
 
 
 _CANNOT_START = (
@@ -237,33 +167,13 @@ _CANNOT_START = (
 )
 
 
-def _call_and_send(
-    function: Callable[..., Any], args: tuple[Any, ...], sender: Connection, parent: int
-) -> None:
-    """Child of :func:`_in_own_process`: say it started, call ``function``, send its result."""
-    die_with_parent(parent)
-    sender.send("started")
-    sender.send(function(*args))
-    sender.close()
-
-
 def died_message(exitcode: int | None) -> str:
     """The error of a trial whose worker process ended without reporting, from its exit code."""
     return (
-        f"its worker process died ({_how_it_ended(exitcode)}) while running this trial, "
+        f"its worker process died ({how_it_ended(exitcode)}) while running this trial, "
         "without reporting a result: a crash in compiled code, an out-of-memory kill, or the "
         "agent ending the process (os._exit, a signal)"
     )
-
-
-def _how_it_ended(exitcode: int | None) -> str:
-    """``"killed by signal SIGSEGV"`` or ``"exited with code 3"``."""
-    if exitcode is not None and exitcode < 0:
-        try:
-            return f"killed by signal {signal.Signals(-exitcode).name}"
-        except ValueError:
-            return f"killed by signal {-exitcode}"
-    return f"exited with code {exitcode}"
 
 
 class RayBackend(Backend):
@@ -292,8 +202,9 @@ class RayBackend(Backend):
 
         A trial task takes its networks as arguments, so Ray starts it only once they exist and
         sends them to the node that runs it; there they are put in that node's cache unless it
-        has them (and each trained one in this machine's cache too). A task whose worker process dies is run again by Ray (up to three times), so
-        a lost worker neither loses nor repeats a row.
+        has them (and each trained one in this machine's cache too). A task whose worker
+        process dies is run again by Ray (up to three times), so a lost worker neither loses
+        nor repeats a row.
         """
         try:
             import ray

@@ -13,7 +13,7 @@ import sys
 import time
 import traceback
 from collections import deque
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence, Set
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -181,6 +181,11 @@ class Batcher:
         total, count = self._time.get(label, (0.0, 0))
         self._time[label] = (total + seconds, count + 1)
 
+    def mean(self, label: str) -> float | None:
+        """Mean seconds of agent ``label``'s trials so far (``None``: none timed yet)."""
+        total, count = self._time.get(label, (0.0, 0))
+        return total / count if count else None
+
     def size(self, label: str) -> int:
         """How many trials of agent ``label`` the next batch holds."""
         total, count = self._time.get(label, (0.0, 0))
@@ -208,7 +213,14 @@ class Job:
 
 
 class Schedule:
-    """What can start now: missing networks first, then trials whose networks are ready.
+    """What a worker should do next.
+
+    In this order: a trial to play again on its own (its batch was on a worker that died), a
+    missing network, the first trial of an agent × cell not yet started (so every agent and
+    cell has a time early: :class:`~ns_pz.experiments.projection.Forecast`), then a batch of
+    ready trials: of an agent the worker has played before if it can (it has paid that agent's
+    first-use cost: imports, compiled code, torch), else of the agent with the most work left
+    per worker that has played it. Trials wait until the networks they need are trained.
 
     Args:
         spec: The experiment (for the error rows of trials whose network failed).
@@ -230,8 +242,11 @@ class Schedule:
         self.batcher = batcher or Batcher()
         self.to_train = deque(self.training.networks[key] for key in self.training.missing)
         self.training_now: set[str] = set(self.training.missing)
-        self.ready: deque[Trial] = deque()
+        self.alone: deque[Trial] = deque()
+        self.samples: list[Trial] = []
+        self.ready: dict[str, deque[Trial]] = {}
         self.blocked: dict[str, list[Trial]] = {}
+        self._sampled: set[tuple[int, str, str]] = set()
         for trial in trials:
             self._place(trial)
 
@@ -239,16 +254,45 @@ class Schedule:
         waiting = self.training.waits_for(trial) & self.training_now
         if waiting:
             self.blocked.setdefault(trial.agent.label, []).append(trial)
+            return
+        group = (trial.cell.index, trial.cell.notification, trial.agent.label)
+        if group not in self._sampled:
+            self._sampled.add(group)
+            self.samples.append(trial)
         else:
-            self.ready.append(trial)
+            self.ready.setdefault(trial.agent.label, deque()).append(trial)
 
-    def next_job(self) -> Job | None:
-        """The next job that can start, or ``None`` (all started, or the rest wait)."""
+    def next_job(
+        self, warm: Set[str] = frozenset(), warm_counts: Mapping[str, int] | None = None
+    ) -> Job | None:
+        """The next job for a worker, or ``None`` (all started, or the rest wait).
+
+        Args:
+            warm: Agent labels the worker has played.
+            warm_counts: Label → how many workers have played it.
+        """
+        if self.alone:
+            return Job(trials=(self.alone.popleft(),))
         if self.to_train:
             return Job(need=self.to_train.popleft())
-        if self.ready:
-            return Job(trials=tuple(self.batcher.take(self.ready)))
-        return None
+        if self.samples:
+            index = next((i for i, t in enumerate(self.samples) if t.agent.label in warm), 0)
+            return Job(trials=(self.samples.pop(index),))
+        labels = [label for label, queue in self.ready.items() if queue]
+        if not labels:
+            return None
+        mine = [label for label in labels if label in warm]
+        if mine:
+            label = mine[0]
+        else:
+            counts = warm_counts or {}
+            label = max(labels, key=lambda name: self._work(name) / (1 + counts.get(name, 0)))
+        return Job(trials=tuple(self.batcher.take(self.ready[label])))
+
+    def _work(self, label: str) -> float:
+        """Seconds of ready work of agent ``label`` (a trial counts 1 s until one is timed)."""
+        mean = self.batcher.mean(label)
+        return len(self.ready[label]) * (1.0 if mean is None else mean)
 
     def finished(self, trial: Trial, row: Mapping[str, Any]) -> None:
         """Record a trial's row (its time sizes the agent's later batches)."""
@@ -275,17 +319,15 @@ class Schedule:
                 self._place(trial)
         return failed
 
-    def put_back(self, job: Job) -> None:
-        """Queue ``job`` again, first (its worker was lost before it began)."""
-        if job.need is not None:
-            self.to_train.appendleft(job.need)
-        else:
-            self.ready.extendleft(reversed(job.trials))
+    def retry_alone(self, trials: Iterable[Trial]) -> None:
+        """Play each of ``trials`` again, one per job, before anything else."""
+        self.alone.extend(trials)
 
     @property
     def done(self) -> bool:
         """Nothing left to start."""
-        return not (self.to_train or self.ready or self.blocked)
+        queued = self.alone or self.to_train or self.samples or self.blocked
+        return not (queued or any(self.ready.values()))
 
 
 # -- networks sent to machines that lack them (Ray) --------------------------------------------
