@@ -235,3 +235,22 @@ def test_a_long_run_is_forecast_once_every_agent_and_cell_has_a_time(tiny) -> No
     assert "on 2 worker(s) at this machine's present load, wall 20 s more" in said[3]
     short = Forecast(trials, workers=2, long=10.0)  # 8 × 0.1 s left: not a long run
     assert not any(short.add(trial, {"wall_time": 0.1}) for trial in trials)
+
+
+def test_a_network_is_sent_as_data_to_a_cache_that_lacks_it(tmp_path: Path) -> None:
+    """What a Ray node lacking a network receives: it lands in its cache, checked as any other."""
+    import numpy as np
+    from ns_pz.agents.learning.artefacts import ArtefactRequest, exists, load, save
+
+    from ns_pz.experiments.work import install, payload
+
+    request = ArtefactRequest("ddqn", "Family()", {"slip": 0.7}, {"hidden": [4]}, 0, "test/1")
+    weights = {"w": np.arange(6.0).reshape(2, 3)}
+    save(request, weights, {"seconds": 1.5}, tmp_path / "here")
+    sent = payload(request, tmp_path / "here")
+    assert not exists(request, tmp_path / "node")
+    install([sent], tmp_path / "node")
+    assert exists(request, tmp_path / "node")
+    np.testing.assert_array_equal(load(request, tmp_path / "node")["w"], weights["w"])
+    install([sent], tmp_path / "node")  # already there: kept as it is
+    assert sent[2] == {"seconds": 1.5}
