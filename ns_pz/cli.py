@@ -131,6 +131,7 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
             raise SpecError(f"{error} (its tables again: ns-pz bench table {target})") from None
     failed = 0
     with contextlib.ExitStack() as held:  # one run per directory, from the check to the end
+        held.enter_context(backend)  # its workers stay up from one spec to the next
         for experiment, target in zip(specs, targets, strict=True):
             held.enter_context(locked(target))
             ResultStore(target).check(experiment, args.resume)  # again, now no one else writes

@@ -254,3 +254,21 @@ def test_a_network_is_sent_as_data_to_a_cache_that_lacks_it(tmp_path: Path) -> N
     np.testing.assert_array_equal(load(request, tmp_path / "node")["w"], weights["w"])
     install([sent], tmp_path / "node")  # already there: kept as it is
     assert sent[2] == {"seconds": 1.5}
+
+
+def test_a_backend_in_a_with_block_keeps_its_workers_between_runs(tiny) -> None:
+    """Two runs in one block share the worker processes; after the block they are gone."""
+    trials = expand(tiny)
+    with LocalBackend(1) as backend:
+        first = [row for _, row in backend.run(tiny, trials)]
+        pool = backend._pool
+        assert pool is not None
+        (worker,) = pool.workers
+        second = [row for _, row in backend.run(tiny, trials)]
+        assert backend._pool is pool and pool.workers == [worker]
+        assert worker.warm == {"random", "VI"}
+    assert backend._pool is None and not worker.process.is_alive()
+    assert [r["return"] for r in first] == [r["return"] for r in second]
+    alone = LocalBackend(1)
+    list(alone.run(tiny, trials[:1]))
+    assert alone._pool is None  # outside a block nothing is kept

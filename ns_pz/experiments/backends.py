@@ -60,6 +60,17 @@ class Backend(ABC):
             on_trained: Called with each missing network's outcome as it ends.
         """
 
+    def close(self) -> None:  # noqa: B027 - a no-op unless a backend keeps something
+        """Release what the backend keeps between runs (nothing, unless it says otherwise)."""
+
+    def __enter__(self) -> Backend:
+        """Keep what can be kept between runs until the ``with`` block ends."""
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        """:meth:`close`."""
+        self.close()
+
 
 class LocalBackend(Backend):
     """A pool of ``workers`` processes on this machine, started once for the run.
@@ -77,6 +88,10 @@ class LocalBackend(Backend):
     was playing is recorded as an error saying how the process ended (a batch's trials are each
     played again on their own first, so only the one that kills its process is blamed).
 
+    Used as a context manager (``with LocalBackend(16) as backend:``), it keeps its workers,
+    warm, from one run to the next (the specs of ``ns-pz bench run paper``) until the block
+    ends; otherwise they stop at the end of each run.
+
     As with any ``spawn`` pool, a script that runs a spec must do so under
     ``if __name__ == "__main__":`` (each worker imports the script again), and agents it
     registers must be registered at its top level. Workers that end before they start (the
@@ -88,6 +103,20 @@ class LocalBackend(Backend):
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
             raise ValueError(f"workers={workers!r} must be an integer >= 1")
         self.workers = workers
+        self._keep = False
+        self._pool: Pool | None = None
+
+    def __enter__(self) -> LocalBackend:
+        """Keep the workers between runs until the block ends."""
+        self._keep = True
+        return self
+
+    def close(self) -> None:
+        """Stop the workers kept between runs, if any."""
+        self._keep = False
+        if self._pool is not None:
+            pool, self._pool = self._pool, None
+            pool.close(clean=True)
 
     def run(
         self,
@@ -101,7 +130,7 @@ class LocalBackend(Backend):
         shown = training is not None and training.shown
         if schedule.done:
             return
-        pool = Pool(self.workers, _CANNOT_START)
+        pool, self._pool = self._pool or Pool(self.workers, _CANNOT_START), None
         clean = False
         try:
             while True:
@@ -114,7 +143,10 @@ class LocalBackend(Backend):
                     yield from _collect(spec, schedule, outcome, on_trained)
             clean = True
         finally:
-            pool.close(clean)  # interrupted: the workers stop now
+            if clean and self._keep:
+                self._pool = pool  # warm for the next run
+            else:
+                pool.close(clean)  # interrupted: the workers stop now
 
 
 def _hand_out(pool: Pool, schedule: Schedule, spec: ExperimentSpec, shown: bool) -> None:
