@@ -123,8 +123,10 @@ def train_network(need: Needed, shown: bool = False) -> Trained:
 
 def _one_thread() -> None:
     """Limit torch to one thread: the other cores run other workers."""
-    import torch  # training needs it anyway
-
+    try:
+        import torch
+    except ImportError:  # training then says which extra to install
+        return
     torch.set_num_threads(1)
 
 
