@@ -142,3 +142,17 @@ def test_help_shows_the_defaults_and_no_markup(capsys: pytest.CaptureFixture[str
     text = " ".join(capsys.readouterr().out.split())
     assert "seeds timed per cell (default: 2)" in text
     assert "quick: a smaller run of every table" in text
+
+
+def test_training_time_on_an_idle_core_comes_from_cpu_time(monkeypatch) -> None:
+    """A probe that got half a core projects, for an idle core, half its wall time."""
+    from ns_pz.experiments import estimate as module
+
+    clock = {"wall": 100.0, "cpu": 5.0}
+    monkeypatch.setattr(module.time, "perf_counter", lambda: clock["wall"])
+    monkeypatch.setattr(module.time, "process_time", lambda: clock["cpu"])
+    probe = module._Probe(1.0, warm_up=0)
+    clock.update(wall=102.0, cpu=6.0)  # 2 s of wall time, 1 s of CPU
+    probe.step(10, 100)
+    assert probe.cpu_share() == 0.5
+    assert probe.projected(100) == 20.0  # 10 units in 2 s: 100 in 20 s, 10 s on an idle core

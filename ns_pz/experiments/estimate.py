@@ -95,6 +95,9 @@ class TrainingCost:
         timed: Steps or episodes actually trained for the projection (0 when cached).
         total: Steps or episodes the full training takes.
         unit: ``"steps"`` or ``"episodes"``.
+        cpu_seconds: Projected training seconds on an otherwise idle core, from this process's
+            CPU time while it was timed (``seconds`` grows when other programs share the
+            machine; this does not). For a cached one: ``seconds``.
     """
 
     key: str
@@ -104,6 +107,7 @@ class TrainingCost:
     timed: int
     total: int
     unit: str
+    cpu_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -229,7 +233,7 @@ def _network(
         target.parent.mkdir(parents=True, exist_ok=True)
         target.symlink_to(source.resolve(), target_is_directory=True)
         seconds = float(read_manifest(source).get("info", {}).get("seconds", 0.0))
-        return TrainingCost(key, need.label, seconds, True, 0, total, unit)
+        return TrainingCost(key, need.label, seconds, True, 0, total, unit, seconds)
     torch_module("ddqn" if unit == "steps" else "alphazero")  # imported before the clock starts
     probe = _Probe(probe_seconds, getattr(need.args, "learning_starts", 0))
     bar = None
@@ -241,7 +245,9 @@ def _network(
         if bar is not None:
             bar.close()
     save(need.request, weights, {**info, "stand_in": True}, stand_ins)
-    return TrainingCost(key, need.label, probe.projected(total), False, probe.done, total, unit)
+    wall = probe.projected(total)
+    cpu = wall * probe.cpu_share()
+    return TrainingCost(key, need.label, wall, False, probe.done, total, unit, cpu)
 
 
 class _Probe:
@@ -254,13 +260,16 @@ class _Probe:
     def __init__(self, seconds: float, warm_up: int) -> None:
         self.seconds, self.warm_up = seconds, warm_up
         self.start = time.perf_counter()
+        self.cpu_start = time.process_time()
         self.done = 0
         self.elapsed = 0.0
+        self.cpu = 0.0
         self._mark: tuple[float, int] | None = None  # (elapsed, done) once warmed up
 
     def step(self, done: int, total: int) -> bool:
         """Record ``done`` units now; True: enough is measured, stop training."""
         self.done, self.elapsed = done, time.perf_counter() - self.start
+        self.cpu = time.process_time() - self.cpu_start
         if self._mark is None and done > self.warm_up:
             self._mark = (self.elapsed, done)
         if self._mark is None or self.elapsed < self.seconds:
@@ -275,6 +284,13 @@ class _Probe:
             return self.step(done, total)
 
         return step
+
+    def cpu_share(self) -> float:
+        """CPU seconds per wall second while timed (below 1 on a busy machine), at most 1.
+
+        At most 1: training runs on one core in a run's worker, whatever threads it used here.
+        """
+        return min(1.0, self.cpu / max(self.elapsed, 1e-9)) if self.elapsed > 0 else 1.0
 
     def projected(self, total: int) -> float:
         """Elapsed time plus the rest at the rate measured after the warm-up."""
@@ -446,7 +462,7 @@ def projection_lines(
         "or plays; a trial waits only for its own networks):"
     ]
     for label, count, cpu in scenarios:
-        to_train = {n.key: n.seconds for n in networks if not n.cached}
+        to_train = {n.key: n.cpu_seconds if cpu else n.seconds for n in networks if not n.cached}
         parts = []
         for spec in specs:
             requires = plan_training(spec, expand(spec)).requires
