@@ -6,6 +6,13 @@ CPU time is the run's and its worker processes' (user + system). Run from the re
 
     python benchmarks/bench_scaling.py                          # quick FrozenLake single, 1 and 2
     python benchmarks/bench_scaling.py --size full --workers 2  # one figure
+    python benchmarks/bench_scaling.py --project 16             # 1 and 2, then 16 projected
+
+``--project N`` projects ``N`` workers from the CPU times of the runs on 1 and 2 workers: the
+second worker's extra CPU (its start-up and every first use it repeats) is paid by each further
+worker, the work is shared evenly, and no worker can finish before the longest network is
+trained (its time in the 1-worker run's log, times the share of a core that run got: CPU over
+wall). A run on one idle core takes its CPU time.
 
 The cache used is ``--cache`` (default: a folder under the system's temporary folder, kept
 between calls so the compiled kernels are built once); the user's cache is never touched.
@@ -15,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import resource
 import shutil
 import subprocess
@@ -52,10 +60,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cache", default=str(Path(tempfile.gettempdir()) / "ns-pz-scaling"))
     parser.add_argument("--log", action="store_true", help="print each run's stderr")
+    parser.add_argument("--project", type=int, default=None, help="project N workers (see above)")
     args, extra = parser.parse_known_args()
     cache = Path(args.cache)
+    results = {}
     for workers in args.workers:
-        result = run_once(args.spec, args.size, workers, cache, extra)
+        result = results[workers] = run_once(args.spec, args.size, workers, cache, extra)
         if args.log:
             print(result["log"])
         print(
@@ -63,6 +73,22 @@ def main() -> None:
             f"CPU {result['cpu']:.1f} s, load {result['load'][0]:.2f} -> {result['load'][1]:.2f}",
             flush=True,
         )
+    if args.project is not None and {1, 2} <= set(results):
+        print(projected(results[1], results[2], args.project))
+
+
+def projected(one: dict, two: dict, workers: int) -> str:
+    """``workers`` workers projected from the runs on 1 and 2 (see the module docstring)."""
+    extra = max(0.0, two["cpu"] - one["cpu"])
+    trained = [float(m) for m in re.findall(r"^trained .* in ([0-9.]+) s$", one["log"], re.M)]
+    longest = max(trained, default=0.0) * min(1.0, one["cpu"] / one["wall"])
+    cpu = one["cpu"] + (workers - 1) * extra
+    wall = max(longest, cpu / workers)
+    return (
+        f"projected on {workers} workers: CPU {cpu:.1f} s ({extra:.1f} s more per worker), "
+        f"longest training {longest:.1f} s, wall {wall:.1f} s: {one['cpu'] / wall:.1f}x one "
+        f"idle core ({one['cpu']:.1f} s)"
+    )
 
 
 if __name__ == "__main__":
