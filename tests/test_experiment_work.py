@@ -272,3 +272,21 @@ def test_a_backend_in_a_with_block_keeps_its_workers_between_runs(tiny) -> None:
     alone = LocalBackend(1)
     list(alone.run(tiny, trials[:1]))
     assert alone._pool is None  # outside a block nothing is kept
+
+
+def test_a_worker_that_dies_idle_is_replaced_and_the_run_goes_on(tiny) -> None:
+    """Killed between jobs, a kept worker is replaced at the next run, which loses nothing."""
+    import os
+    import signal
+
+    trials = expand(tiny)
+    with LocalBackend(1) as backend:
+        list(backend.run(tiny, trials[:2]))
+        assert backend._pool is not None
+        (worker,) = backend._pool.workers
+        os.kill(worker.process.pid, signal.SIGKILL)
+        worker.process.join()
+        rows = [row for _, row in backend.run(tiny, trials)]
+        assert backend._pool.workers[0] is not worker
+    assert sorted(r["trial"] for r in rows) == sorted(t.key for t in trials)
+    assert {r["status"] for r in rows} == {"ok"}

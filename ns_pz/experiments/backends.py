@@ -159,7 +159,7 @@ def _hand_out(pool: Pool, schedule: Schedule, spec: ExperimentSpec, shown: bool)
         if job.need is not None:
             pool.submit(worker, job, train_network, job.need, shown)
             continue
-        pool.submit(worker, job, run_batch, spec, job.trials)
+        worker = pool.submit(worker, job, run_batch, spec, job.trials)
         label = job.trials[0].agent.label
         if label not in worker.warm:
             worker.warm.add(label)

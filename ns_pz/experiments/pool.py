@@ -90,10 +90,21 @@ class Pool:
         """Whether any worker is running a job."""
         return any(worker.job is not None for worker in self.workers)
 
-    def submit(self, worker: Worker, job: Any, function: Callable[..., Any], *args: Any) -> None:
-        """Run ``function(*args)`` on ``worker`` (idle), remembering ``job`` as its work."""
+    def submit(self, worker: Worker, job: Any, function: Callable[..., Any], *args: Any) -> Worker:
+        """Run ``function(*args)`` on ``worker`` (idle), remembering ``job`` as its work.
+
+        Returns:
+            The worker that took it: ``worker``, or a fresh one in its place if it had died.
+        """
+        try:
+            worker.conn.send((function, args))
+        except OSError:  # it died while idle: a fresh one takes the job
+            worker.exitcode()
+            worker.conn.close()
+            worker = self.workers[worker.index] = Worker(worker.index)
+            worker.conn.send((function, args))
         worker.job = job
-        worker.conn.send((function, args))
+        return worker
 
     def wait(self) -> list[Outcome]:
         """Block until a worker sends a result or dies; what ended (a dead one is replaced)."""
@@ -105,7 +116,9 @@ class Pool:
                 try:
                     result = worker.conn.recv()
                 except (EOFError, OSError):
-                    finished.append(self._died(worker))
+                    outcome = self._died(worker)
+                    if outcome.job is not None:  # an idle one is only replaced
+                        finished.append(outcome)
                     continue
                 if not worker.started:  # its first message: it has started
                     worker.started = self._any_started = True
