@@ -139,8 +139,9 @@ class LocalBackend(Backend):
                     if not schedule.done:  # every trial left waits for a network none trains
                         raise RuntimeError("the schedule stalled with trials left (a bug)")
                     break
-                for outcome in pool.wait():
-                    yield from _collect(spec, schedule, outcome, on_trained)
+                rows = [row for o in pool.wait() for row in _collect(spec, schedule, o, on_trained)]
+                _hand_out(pool, schedule, spec, shown)  # before the rows are stored: no idling
+                yield from rows
             clean = True
         finally:
             if clean and self._keep:
