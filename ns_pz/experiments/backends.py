@@ -174,8 +174,6 @@ def _collect(
     on_trained: Callable[[Trained], None] | None,
 ) -> Iterator[tuple[Trial, dict]]:
     """The rows of one ended job (error rows if its worker died)."""
-    for queued in outcome.unstarted:  # never begun: not to blame
-        schedule.put_back(queued)
     job: Job = outcome.job
     if job.need is not None:
         result = outcome.result

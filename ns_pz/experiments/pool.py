@@ -12,7 +12,6 @@ import contextlib
 import multiprocessing
 import os
 import signal
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
@@ -32,7 +31,7 @@ class Worker:
         self.process.start()
         child.close()  # the worker holds the only other end: EOF when it dies
         self.started = False
-        self.jobs: deque[Any] = deque()  # sent, in order: the first is running
+        self.job: Any = None
         self.warm: set[str] = set()
 
     def exitcode(self) -> int | None:
@@ -68,8 +67,6 @@ class Outcome:
     result: Any = None
     died: bool = False
     exitcode: int | None = None
-    unstarted: tuple[Any, ...] = ()
-    """Jobs queued on a worker that died before it began them."""
 
 
 class Pool:
@@ -85,18 +82,13 @@ class Pool:
         self._any_started = False
 
     def idle(self) -> list[Worker]:
-        """Workers that can take a job now: running nothing first, then running one.
-
-        A worker holds a second job queued behind the one it runs, so it never waits for the
-        caller (who may be storing results) between two jobs.
-        """
-        free = [worker for worker in self.workers if not worker.jobs]
-        return free + [worker for worker in self.workers if len(worker.jobs) == 1]
+        """Workers running nothing."""
+        return [worker for worker in self.workers if worker.job is None]
 
     @property
     def busy(self) -> bool:
-        """Whether any worker has a job."""
-        return any(worker.jobs for worker in self.workers)
+        """Whether any worker is running a job."""
+        return any(worker.job is not None for worker in self.workers)
 
     def submit(self, worker: Worker, job: Any, function: Callable[..., Any], *args: Any) -> Worker:
         """Run ``function(*args)`` on ``worker`` (idle), remembering ``job`` as its work.
@@ -106,15 +98,12 @@ class Pool:
         """
         try:
             worker.conn.send((function, args))
-        except OSError:
-            if worker.jobs:  # it died at work: wait() reports it, this job as not begun
-                worker.jobs.append(job)
-                return worker
-            worker.exitcode()  # it died while idle: a fresh one takes the job
+        except OSError:  # it died while idle: a fresh one takes the job
+            worker.exitcode()
             worker.conn.close()
             worker = self.workers[worker.index] = Worker(worker.index)
             worker.conn.send((function, args))
-        worker.jobs.append(job)
+        worker.job = job
         return worker
 
     def wait(self) -> list[Outcome]:
@@ -134,7 +123,8 @@ class Pool:
                 if not worker.started:  # its first message: it has started
                     worker.started = self._any_started = True
                     continue
-                finished.append(Outcome(worker, worker.jobs.popleft(), result))
+                job, worker.job = worker.job, None
+                finished.append(Outcome(worker, job, result))
             if finished:
                 return finished
 
@@ -145,9 +135,7 @@ class Pool:
             raise RuntimeError(self.cannot_start.format(how=how))
         worker.conn.close()
         self.workers[worker.index] = Worker(worker.index)
-        running = worker.jobs[0] if worker.jobs else None
-        rest = tuple(worker.jobs)[1:]
-        return Outcome(worker, running, died=True, exitcode=code, unstarted=rest)
+        return Outcome(worker, worker.job, died=True, exitcode=code)
 
     def close(self, clean: bool) -> None:
         """Stop every worker: after telling it to end if ``clean``, else at once (terminate)."""

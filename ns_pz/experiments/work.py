@@ -321,13 +321,6 @@ class Schedule:
                 self._place(trial)
         return failed
 
-    def put_back(self, job: Job) -> None:
-        """Queue ``job`` again (its worker died before it began it): a network trains first."""
-        if job.need is not None:
-            self.to_train.appendleft(job.need)
-        else:
-            self.alone.extend(job.trials)
-
     def retry_alone(self, trials: Iterable[Trial]) -> None:
         """Play each of ``trials`` again, one per job, before anything else."""
         self.alone.extend(trials)
