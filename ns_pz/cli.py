@@ -131,6 +131,7 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
             raise SpecError(f"{error} (its tables again: ns-pz bench table {target})") from None
     failed = 0
     with contextlib.ExitStack() as held:  # one run per directory, from the check to the end
+        held.enter_context(backend)  # its workers stay up from one spec to the next
         for experiment, target in zip(specs, targets, strict=True):
             held.enter_context(locked(target))
             ResultStore(target).check(experiment, args.resume)  # again, now no one else writes
@@ -260,7 +261,13 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     """``bench estimate``: time a little training and a few capped trials; project the run."""
     from ns_pz.agents.learning.artefacts import cache_dir
     from ns_pz.experiments import load_spec
-    from ns_pz.experiments.estimate import estimate, estimate_training, plan, stand_in_cache
+    from ns_pz.experiments.estimate import (
+        estimate,
+        estimate_training,
+        plan,
+        projection_lines,
+        stand_in_cache,
+    )
 
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
     out(plan(specs, args.samples, args.cell_seconds, args.probe_seconds).text())
@@ -277,7 +284,7 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
                     f"training: {network.label}: projected {network.seconds:.0f} s (timed "
                     f"{network.timed:,} of {network.total:,} {network.unit})"
                 )
-        grand = grand_cpu = 0.0
+        costs = {}
         out(
             "| spec | setting | notification | agent | s/trial | CPU s/trial | trials "
             "| projected s (1 core) |"
@@ -285,30 +292,22 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         out("|---|---|---|---|---|---|---|---|")
         for experiment in specs:
             labels = {label for name, label in stand_in_agents if name == experiment.name}
-            for cost in estimate(
+            costs[experiment.name] = estimate(
                 experiment, args.samples, sys.stderr, args.cell_seconds, at_horizon=labels
-            ):
-                grand += cost.total_seconds
-                grand_cpu += cost.total_cpu_seconds
+            )
+            for cost in costs[experiment.name]:
                 at = "≤ " if cost.at_horizon else ""
                 out(
                     f"| {experiment.name} | {cost.setting} | {cost.notification} | {cost.agent} "
                     f"| {at}{cost.seconds_per_trial:.3f} | {at}{cost.cpu_seconds_per_trial:.3f} "
                     f"| {cost.trials} | {at}{cost.total_seconds:.0f} |"
                 )
-    workers = args.workers
-    trained = sum(n.seconds for n in networks if not n.cached) / workers  # in parallel
-    wall, wall_cpu = trained + grand / workers, trained + grand_cpu / workers
     out(
         "\n≤: an episode cut at --cell-seconds, or played by a partly trained stand-in network, "
         "projected from its time per step to the horizon (an upper bound)."
     )
-    out(
-        f"projected wall time on {workers} worker(s): {wall:.0f} s ({wall / 3600:.2f} h) at "
-        f"this machine's present load; {wall_cpu:.0f} s ({wall_cpu / 3600:.2f} h) on idle cores "
-        f"(from CPU time); of which training {trained:.0f} s; from {args.samples} sampled "
-        f"seed(s) per cell"
-    )
+    for line in projection_lines(specs, networks, costs, args.workers):
+        out(line)
     return EXIT_OK
 
 

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import time
+from pathlib import Path
 from typing import Any
 
 from ns_pz.agents.baselines import RandomAgent
@@ -47,3 +49,23 @@ class ExitsOnCell(FailsOnCell):
 def exits_politely_on_cell(env: Any, *, cell: int = 8) -> FailsOnCell:
     """Raises SystemExit on ``cell``."""
     return ExitsOnCell(env.family.action_space, cell, hard=False)
+
+
+class SlowRandom(RandomAgent):
+    """A random agent that takes ``pause`` seconds a step and leaves its process id in a folder."""
+
+    def __init__(self, action_space: Any, pause: float, marker: str) -> None:
+        super().__init__(action_space)
+        self.pause, self.marker = pause, marker
+
+    def act(self, observation: dict[str, Any], model: Any = None) -> int:
+        """Random, after the pause."""
+        if self.marker:
+            Path(self.marker, str(os.getpid())).touch()
+        time.sleep(self.pause)
+        return super().act(observation, model)
+
+
+def slow_random(env: Any, *, pause: float = 0.05, marker: str = "") -> SlowRandom:
+    """A random agent slow enough to be caught mid-trial (``marker``: a folder for its pids)."""
+    return SlowRandom(env.family.action_space, pause, marker)

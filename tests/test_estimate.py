@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import os
 from pathlib import Path
 
 import pytest
@@ -69,8 +70,10 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
     assert main(argv, lines.append) == 0
     assert lines[0].startswith("estimate: 0 network(s) to train")
     assert "8 agent x cell group(s), up to 1 seed(s) each within 1 s per group" in lines[0]
-    assert "projected wall time on 2 worker(s)" in lines[-1]
-    assert "at this machine's present load;" in lines[-1] and "on idle cores" in lines[-1]
+    assert lines[-3].startswith("projected (specs one after the other; a worker starts in ")
+    assert lines[-2].startswith("  on 2 worker(s), idle cores (from CPU time): no network")
+    assert "48 trials" in lines[-2] and "wall " in lines[-2]
+    assert lines[-1].startswith(f"  on this machine ({os.cpu_count()} cores) at its present load")
     with pytest.raises(ValueError, match="samples=0 must be >= 1"):
         estimate(experiment, samples=0)
     with pytest.raises(ValueError, match="cell_seconds=0 must be >= 0.001"):
@@ -139,3 +142,17 @@ def test_help_shows_the_defaults_and_no_markup(capsys: pytest.CaptureFixture[str
     text = " ".join(capsys.readouterr().out.split())
     assert "seeds timed per cell (default: 2)" in text
     assert "quick: a smaller run of every table" in text
+
+
+def test_training_time_on_an_idle_core_comes_from_cpu_time(monkeypatch) -> None:
+    """A probe that got half a core projects, for an idle core, half its wall time."""
+    from ns_pz.experiments import estimate as module
+
+    clock = {"wall": 100.0, "cpu": 5.0}
+    monkeypatch.setattr(module.time, "perf_counter", lambda: clock["wall"])
+    monkeypatch.setattr(module.time, "process_time", lambda: clock["cpu"])
+    probe = module._Probe(1.0, warm_up=0)
+    clock.update(wall=102.0, cpu=6.0)  # 2 s of wall time, 1 s of CPU
+    probe.step(10, 100)
+    assert probe.cpu_share() == 0.5
+    assert probe.projected(100) == 20.0  # 10 units in 2 s: 100 in 20 s, 10 s on an idle core

@@ -125,7 +125,7 @@ def test_train_command_builds_then_finds_the_networks(tmp_path):
     assert sum(line.startswith("training: ") for line in lines) == 2  # shared ones once
     # Both networks are cached: a run here loads them, so the projection has no training.
     assert sum(line.endswith("s)") and ": cached (trained in" in line for line in lines) == 2
-    assert "of which training 0 s" in lines[-1]
+    assert "no network to train" in lines[-2] and "no network to train" in lines[-1]
 
 
 def test_sigterm_during_parallel_training_stops_the_workers_at_once(tmp_path):
@@ -186,4 +186,4 @@ def test_estimate_times_training_for_seconds_and_leaves_the_cache_alone(tmp_path
     assert projected > 2  # 400,000 steps take far more than the second timed
     assert not cache_dir().exists()  # nothing trained into the user's cache
     assert any("| ≤ " in line for line in lines if "| DDQN |" in line)  # a stand-in: horizon
-    assert "of which training" in lines[-1]
+    assert "training 2 network(s)" in lines[-1] and "all ready after" in lines[-1]

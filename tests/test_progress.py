@@ -28,3 +28,17 @@ def test_training_steps_show_a_rate_per_second_and_plain_lines() -> None:
     lines = stream.getvalue().splitlines()
     assert lines[-1].startswith("training DDQN [") and "200,000/200,000 steps" in lines[-1]
     assert "ETA 0:00" in lines[-1] and "\r" not in stream.getvalue()
+
+
+def test_a_note_goes_above_a_line_drawn_in_place() -> None:
+    """In place, a note clears the status line, ends with a newline, and the line is redrawn."""
+    stream = io.StringIO()
+    bar = Progress(10, 0, "run", stream, in_place=True)
+    bar.advance()
+    bar.note("trained DDQN in 3.0 s")
+    text = stream.getvalue()
+    before, _, after = text.rpartition("trained DDQN in 3.0 s")
+    assert before.endswith("\r") and after.startswith(" ") and "\n\rrun [" in after
+    plain = io.StringIO()
+    Progress(10, 0, "run", plain, in_place=False).note("hello")
+    assert plain.getvalue() == "hello\n"

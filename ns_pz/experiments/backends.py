@@ -9,44 +9,88 @@ extra (``pip install "ns_pz[ray]"``) and is imported only when chosen.
 from __future__ import annotations
 
 import contextlib
-import multiprocessing
 import os
-import signal
 import tempfile
 from abc import ABC, abstractmethod
-from collections.abc import Generator, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, wait
-from concurrent.futures.process import BrokenProcessPool
-from multiprocessing.connection import Connection
+from collections import Counter
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 import ns_pz
+from ns_pz.agents.learning.trained import Needed
+from ns_pz.experiments.pool import Outcome, Pool, how_it_ended
 from ns_pz.experiments.spec import ExperimentSpec
-from ns_pz.experiments.trials import Trial, error_row, run_trial
-from ns_pz.workers import die_with_parent, new_pool, stop_pool
+from ns_pz.experiments.trials import Trial, error_row
+from ns_pz.experiments.work import (
+    Job,
+    Schedule,
+    Trained,
+    Training,
+    install,
+    payload,
+    run_batch,
+    train_and_ship,
+    train_network,
+)
 
 BACKENDS = ("local", "ray")
 
 
 class Backend(ABC):
-    """Runs trials and yields ``(trial, row)`` as each finishes."""
+    """Runs trials (after the networks they need) and yields ``(trial, row)`` as each finishes."""
 
     @abstractmethod
-    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
-        """Run every trial; yield each one's row as soon as it is done."""
+    def run(
+        self,
+        spec: ExperimentSpec,
+        trials: Sequence[Trial],
+        training: Training | None = None,
+        on_trained: Callable[[Trained], None] | None = None,
+    ) -> Iterator[tuple[Trial, dict]]:
+        """Run every trial; yield each one's row as soon as it is done.
+
+        Args:
+            spec: The experiment.
+            trials: The trials to run.
+            training: The networks they need (:func:`~ns_pz.experiments.work.plan_training`):
+                the missing ones train first, in parallel, and a trial starts as soon as its
+                own are ready. A trial whose network failed to train is an error row.
+                ``None``: none is trained first.
+            on_trained: Called with each missing network's outcome as it ends.
+        """
+
+    def close(self) -> None:  # noqa: B027 - a no-op unless a backend keeps something
+        """Release what the backend keeps between runs (nothing, unless it says otherwise)."""
+
+    def __enter__(self) -> Backend:
+        """Keep what can be kept between runs until the ``with`` block ends."""
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        """:meth:`close`."""
+        self.close()
 
 
 class LocalBackend(Backend):
-    """A pool of ``workers`` processes on this machine.
+    """A pool of ``workers`` processes on this machine, started once for the run.
+
+    The pool first trains the networks the run is missing, one per worker, single-threaded;
+    trials start as soon as their networks are ready, the others while training goes on. A
+    worker keeps its imports and compiled code from one job to the next and is given more of
+    the agent it has already played where it can (see :class:`~ns_pz.experiments.work.Schedule`),
+    and short trials reach it in batches (:class:`~ns_pz.experiments.work.Batcher`).
 
     Trials never run in the calling process, not even with one worker: a trial that kills its
     process (a crash in compiled code, an out-of-memory kill, an agent's ``os._exit``) must not
     take the run with it. Workers are started with ``spawn`` (no state inherited from the
-    parent) and end themselves if the parent dies. If a worker dies, the trials that were in
-    flight are re-run one at a time, each in a process of its own, so only the one that kills
-    its process again is recorded as an error, with how the process ended; the pool restarts
-    for the rest.
+    parent) and end themselves if the parent dies. A worker that dies is replaced; the trial it
+    was playing is recorded as an error saying how the process ended (a batch's trials are each
+    played again on their own first, so only the one that kills its process is blamed).
+
+    Used as a context manager (``with LocalBackend(16) as backend:``), it keeps its workers,
+    warm, from one run to the next (the specs of ``ns-pz bench run paper``) until the block
+    ends; otherwise they stop at the end of each run.
 
     As with any ``spawn`` pool, a script that runs a spec must do so under
     ``if __name__ == "__main__":`` (each worker imports the script again), and agents it
@@ -59,85 +103,94 @@ class LocalBackend(Backend):
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
             raise ValueError(f"workers={workers!r} must be an integer >= 1")
         self.workers = workers
+        self._keep = False
+        self._pool: Pool | None = None
 
-    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
+    def __enter__(self) -> LocalBackend:
+        """Keep the workers between runs until the block ends."""
+        self._keep = True
+        return self
+
+    def close(self) -> None:
+        """Stop the workers kept between runs, if any."""
+        self._keep = False
+        if self._pool is not None:
+            pool, self._pool = self._pool, None
+            pool.close(clean=True)
+
+    def run(
+        self,
+        spec: ExperimentSpec,
+        trials: Sequence[Trial],
+        training: Training | None = None,
+        on_trained: Callable[[Trained], None] | None = None,
+    ) -> Iterator[tuple[Trial, dict]]:
         """Run in a process pool; a trial whose process dies becomes an error row."""
-        remaining = list(trials)
-        while remaining:
-            remaining, suspects = yield from self._pool_run(spec, remaining, self.workers)
-            for trial in suspects:  # one at a time, so only the culprit is blamed
-                yield trial, run_alone(spec, trial)
-
-    def _pool_run(
-        self, spec: ExperimentSpec, trials: list[Trial], workers: int
-    ) -> Generator[tuple[Trial, dict], None, tuple[list[Trial], list[Trial]]]:
-        """Run until done or the pool breaks.
-
-        Returns:
-            ``(not started, in flight when the pool broke)``: both empty after a clean run.
-        """
-        started = multiprocessing.get_context("spawn").Event()
-        pool = new_pool(workers, started)
-        pending: dict[Future[dict], Trial] = {}
-        queue = list(reversed(trials))
+        schedule = Schedule(spec, trials, training)
+        shown = training is not None and training.shown
+        if schedule.done:
+            return
+        pool, self._pool = self._pool or Pool(self.workers, _CANNOT_START), None
         clean = False
         try:
-            while queue or pending:
-                broken = False
-                while queue and len(pending) < 2 * workers and not broken:
-                    try:
-                        pending[pool.submit(run_trial, spec, queue[-1])] = queue[-1]
-                        queue.pop()
-                    except BrokenProcessPool:
-                        broken = True
-                done, _ = wait(pending, return_when=FIRST_COMPLETED) if pending else (set(), set())
-                for future in done:
-                    if isinstance(future.exception(), BrokenProcessPool):
-                        broken = True
-                        continue
-                    yield pending.pop(future), future.result()
-                if broken:
-                    if not started.is_set():
-                        raise RuntimeError(_CANNOT_START.format(how="before they started"))
-                    # A worker died: which in-flight trial killed it cannot be known here.
-                    return list(reversed(queue)), list(pending.values())
+            while True:
+                _hand_out(pool, schedule, spec, shown)
+                if not pool.busy:
+                    if not schedule.done:  # every trial left waits for a network none trains
+                        raise RuntimeError("the schedule stalled with trials left (a bug)")
+                    break
+                rows = [row for o in pool.wait() for row in _collect(spec, schedule, o, on_trained)]
+                _hand_out(pool, schedule, spec, shown)  # before the rows are stored: no idling
+                yield from rows
             clean = True
         finally:
-            stop_pool(pool, clean)  # interrupted or broken: the workers stop now
-        return [], []
+            if clean and self._keep:
+                self._pool = pool  # warm for the next run
+            else:
+                pool.close(clean)  # interrupted: the workers stop now
 
 
-def run_alone(spec: ExperimentSpec, trial: Trial) -> dict[str, Any]:
-    """Run one trial in a fresh process of its own; its row, or an error row if it died.
+def _hand_out(pool: Pool, schedule: Schedule, spec: ExperimentSpec, shown: bool) -> None:
+    """Give each idle worker its next job, while there is one."""
+    counts = Counter(label for worker in pool.workers for label in worker.warm)
+    for worker in pool.idle():
+        job = schedule.next_job(worker.warm, counts)
+        if job is None:
+            return
+        if job.need is not None:
+            pool.submit(worker, job, train_network, job.need, shown)
+            continue
+        worker = pool.submit(worker, job, run_batch, spec, job.trials)
+        label = job.trials[0].agent.label
+        if label not in worker.warm:
+            worker.warm.add(label)
+            counts[label] += 1
 
-    The error row says how the process ended (the signal that killed it, or its exit code).
-    """
-    context = multiprocessing.get_context("spawn")
-    receiver, sender = context.Pipe(duplex=False)
-    process = context.Process(
-        target=_run_and_send, args=(spec, trial, sender, os.getpid()), daemon=True
-    )
-    process.start()
-    sender.close()  # the child holds the only writing end: EOF when it dies
-    clean = False
-    try:
-        started = row = None
-        with contextlib.suppress(EOFError):
-            started = receiver.recv()
-            row = receiver.recv()
-        process.join()
-        clean = True
-    finally:
-        receiver.close()
-        if not clean:  # interrupted: the child stops now
-            process.terminate()
-            process.join()
-    if started is None:
-        how = f"before it started ({_how_it_ended(process.exitcode)})"
-        raise RuntimeError(_CANNOT_START.format(how=how))
-    if row is None:
-        return error_row(spec, trial, died_message(process.exitcode))
-    return row
+
+def _collect(
+    spec: ExperimentSpec,
+    schedule: Schedule,
+    outcome: Outcome,
+    on_trained: Callable[[Trained], None] | None,
+) -> Iterator[tuple[Trial, dict]]:
+    """The rows of one ended job (error rows if its worker died)."""
+    job: Job = outcome.job
+    if job.need is not None:
+        result = outcome.result
+        if outcome.died:
+            message = died_message(outcome.exitcode)
+            result = Trained(job.need.request.key, job.need.label, 0.0, False, message)
+        if on_trained is not None:
+            on_trained(result)
+        yield from schedule.trained(result)
+    elif not outcome.died:
+        for trial, row in zip(job.trials, outcome.result, strict=True):
+            schedule.finished(trial, row)
+            yield trial, row
+    elif len(job.trials) == 1:
+        yield job.trials[0], error_row(spec, job.trials[0], died_message(outcome.exitcode))
+    else:  # which of them killed it cannot be known: each plays again on its own
+        schedule.retry_alone(job.trials)
 
 
 _CANNOT_START = (
@@ -147,31 +200,13 @@ _CANNOT_START = (
 )
 
 
-def _run_and_send(spec: ExperimentSpec, trial: Trial, sender: Connection, parent: int) -> None:
-    """Child of :func:`run_alone`: say it started, run the trial, send its row back."""
-    die_with_parent(parent)
-    sender.send("started")
-    sender.send(run_trial(spec, trial))
-    sender.close()
-
-
 def died_message(exitcode: int | None) -> str:
     """The error of a trial whose worker process ended without reporting, from its exit code."""
     return (
-        f"its worker process died ({_how_it_ended(exitcode)}) while running this trial, "
+        f"its worker process died ({how_it_ended(exitcode)}) while running this trial, "
         "without reporting a result: a crash in compiled code, an out-of-memory kill, or the "
         "agent ending the process (os._exit, a signal)"
     )
-
-
-def _how_it_ended(exitcode: int | None) -> str:
-    """``"killed by signal SIGSEGV"`` or ``"exited with code 3"``."""
-    if exitcode is not None and exitcode < 0:
-        try:
-            return f"killed by signal {signal.Signals(-exitcode).name}"
-        except ValueError:
-            return f"killed by signal {-exitcode}"
-    return f"exited with code {exitcode}"
 
 
 class RayBackend(Backend):
@@ -189,25 +224,65 @@ class RayBackend(Backend):
         self.workers = workers
         self.address = address
 
-    def run(self, spec: ExperimentSpec, trials: Sequence[Trial]) -> Iterator[tuple[Trial, dict]]:
-        """Submit every trial, yield rows as tasks finish."""
+    def run(
+        self,
+        spec: ExperimentSpec,
+        trials: Sequence[Trial],
+        training: Training | None = None,
+        on_trained: Callable[[Trained], None] | None = None,
+    ) -> Iterator[tuple[Trial, dict]]:
+        """Train the missing networks as tasks, then each trial as a task once its are ready.
+
+        A trial task takes its networks as arguments, so Ray starts it only once they exist and
+        sends them to the node that runs it; there they are put in that node's cache unless it
+        has them (and each trained one in this machine's cache too). A task whose worker
+        process dies is run again by Ray (up to three times), so a lost worker neither loses
+        nor repeats a row.
+        """
         try:
             import ray
         except ImportError:
             raise RuntimeError(
                 'the ray backend needs Ray: pip install "ns_pz[ray]" (or use --backend local)'
             ) from None
+        training = training or Training()
         started_here = not ray.is_initialized()
         if started_here:
             with _away_from_a_shadowing_checkout():
                 self._init(ray)
         try:
-            remote = ray.remote(run_trial)
+            train: Any = ray.remote(num_returns=2, max_retries=3)(train_and_ship)
+            play = ray.remote(max_retries=3)(_play_with)
             spec_ref = ray.put(spec)
-            pending = {remote.remote(spec_ref, trial): trial for trial in trials}
-            while pending:
-                done, _ = ray.wait(list(pending), num_returns=1)
+            networks: dict[str, Any] = {}
+            trainings: dict[Any, Needed] = {}
+            for key, need in training.networks.items():
+                if key in training.missing:
+                    outcome, networks[key] = train.remote(need)
+                    trainings[outcome] = need
+                else:  # cached here: sent to the nodes that run its trials
+                    networks[key] = ray.put(payload(need.request))
+            pending = {
+                play.remote(
+                    spec_ref, trial, *(networks[k] for k in sorted(training.waits_for(trial)))
+                ): trial
+                for trial in trials
+            }
+            while pending or trainings:
+                done, _ = ray.wait([*trainings, *pending], num_returns=1)
                 for ref in done:
+                    if ref in trainings:
+                        need = trainings.pop(ref)
+                        try:
+                            result = ray.get(ref)
+                        except Exception as error:  # noqa: BLE001 - a lost worker or node
+                            message = f"Ray task failed: {error}"
+                            result = Trained(need.request.key, need.label, 0.0, False, message)
+                        if not result.error:  # kept here too: a later run here finds it
+                            install([ray.get(networks[need.request.key])])
+                        if on_trained is not None:
+                            on_trained(result)
+                        continue
                     trial = pending.pop(ref)
                     try:
                         row = ray.get(ref)
@@ -225,6 +300,18 @@ class RayBackend(Backend):
             ray.init(log_to_driver=False)
         else:
             ray.init(num_cpus=self.workers, include_dashboard=False, log_to_driver=False)
+
+
+def _play_with(spec: ExperimentSpec, trial: Trial, *networks: Any) -> dict[str, Any]:
+    """A Ray task: cache the trial's networks on this node if missing, then play the trial.
+
+    A network that failed to train arrives as the text saying why: the trial's error.
+    """
+    for network in networks:
+        if isinstance(network, str):
+            return error_row(spec, trial, network)
+    install(networks)
+    return run_batch(spec, [trial])[0]
 
 
 @contextlib.contextmanager

@@ -22,9 +22,11 @@ from __future__ import annotations
 
 import contextlib
 import os
+import subprocess
+import sys
 import tempfile
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -40,9 +42,11 @@ from ns_pz.agents.learning.artefacts import (
 )
 from ns_pz.agents.learning.trained import Needed, torch_module
 from ns_pz.experiments.progress import Progress
+from ns_pz.experiments.projection import GroupTime, combined, project
 from ns_pz.experiments.runner import needed_networks
 from ns_pz.experiments.spec import LEVEL_LABELS, ExperimentSpec
 from ns_pz.experiments.trials import Trial, expand
+from ns_pz.experiments.work import plan_training
 
 CELL_SECONDS = 1.0
 """Default cap on the seconds spent timing one agent in one cell (all its sampled seeds)."""
@@ -91,6 +95,9 @@ class TrainingCost:
         timed: Steps or episodes actually trained for the projection (0 when cached).
         total: Steps or episodes the full training takes.
         unit: ``"steps"`` or ``"episodes"``.
+        cpu_seconds: Projected training seconds on an otherwise idle core, from this process's
+            CPU time while it was timed (``seconds`` grows when other programs share the
+            machine; this does not). For a cached one: ``seconds``.
     """
 
     key: str
@@ -100,6 +107,7 @@ class TrainingCost:
     timed: int
     total: int
     unit: str
+    cpu_seconds: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -225,7 +233,7 @@ def _network(
         target.parent.mkdir(parents=True, exist_ok=True)
         target.symlink_to(source.resolve(), target_is_directory=True)
         seconds = float(read_manifest(source).get("info", {}).get("seconds", 0.0))
-        return TrainingCost(key, need.label, seconds, True, 0, total, unit)
+        return TrainingCost(key, need.label, seconds, True, 0, total, unit, seconds)
     torch_module("ddqn" if unit == "steps" else "alphazero")  # imported before the clock starts
     probe = _Probe(probe_seconds, getattr(need.args, "learning_starts", 0))
     bar = None
@@ -237,7 +245,9 @@ def _network(
         if bar is not None:
             bar.close()
     save(need.request, weights, {**info, "stand_in": True}, stand_ins)
-    return TrainingCost(key, need.label, probe.projected(total), False, probe.done, total, unit)
+    wall = probe.projected(total)
+    cpu = wall * probe.cpu_share()
+    return TrainingCost(key, need.label, wall, False, probe.done, total, unit, cpu)
 
 
 class _Probe:
@@ -250,13 +260,16 @@ class _Probe:
     def __init__(self, seconds: float, warm_up: int) -> None:
         self.seconds, self.warm_up = seconds, warm_up
         self.start = time.perf_counter()
+        self.cpu_start = time.process_time()
         self.done = 0
         self.elapsed = 0.0
+        self.cpu = 0.0
         self._mark: tuple[float, int] | None = None  # (elapsed, done) once warmed up
 
     def step(self, done: int, total: int) -> bool:
         """Record ``done`` units now; True: enough is measured, stop training."""
         self.done, self.elapsed = done, time.perf_counter() - self.start
+        self.cpu = time.process_time() - self.cpu_start
         if self._mark is None and done > self.warm_up:
             self._mark = (self.elapsed, done)
         if self._mark is None or self.elapsed < self.seconds:
@@ -271,6 +284,13 @@ class _Probe:
             return self.step(done, total)
 
         return step
+
+    def cpu_share(self) -> float:
+        """CPU seconds per wall second while timed (below 1 on a busy machine), at most 1.
+
+        At most 1: training runs on one core in a run's worker, whatever threads it used here.
+        """
+        return min(1.0, self.cpu / max(self.elapsed, 1e-9)) if self.elapsed > 0 else 1.0
 
     def projected(self, total: int) -> float:
         """Elapsed time plus the rest at the rate measured after the warm-up."""
@@ -401,3 +421,65 @@ def _time_trial(
     wall = (first[0] - wall0) + (wall2 - first[0]) * scale
     cpu = (first[1] - cpu0) + (cpu2 - first[1]) * scale
     return wall, cpu, cut
+
+
+def worker_startup() -> float:
+    """Seconds a fresh worker process takes to start and import what trials need, measured."""
+    start = time.perf_counter()
+    subprocess.run(
+        [sys.executable, "-c", "import ns_pz.experiments.work"], check=True, capture_output=True
+    )
+    return time.perf_counter() - start
+
+
+def projection_lines(
+    specs: Sequence[ExperimentSpec],
+    networks: Sequence[TrainingCost],
+    costs: Mapping[str, Sequence[CellCost]],
+    workers: int,
+    startup: float | None = None,
+) -> list[str]:
+    """The run's projected time on ``workers`` workers and on this machine, as text.
+
+    Training and trials are given apart (:func:`~ns_pz.experiments.projection.project`). Specs
+    run one after the other, each with its own workers; a network several share is trained by
+    the first. On ``workers`` workers the trials take their CPU time (idle cores); on this
+    machine's cores, their wall time as measured (its present load).
+
+    Args:
+        specs: The experiments, in the order they run.
+        networks: What :func:`estimate_training` gave (cached ones cost nothing).
+        costs: Spec name → what :func:`estimate` gave.
+        workers: Worker processes to project for.
+        startup: Seconds a worker takes to start (``None``: measured, :func:`worker_startup`).
+    """
+    here = os.cpu_count() or 1
+    startup = worker_startup() if startup is None else startup
+    scenarios = [(f"on {workers} worker(s), idle cores (from CPU time)", workers, True)]
+    scenarios.append((f"on this machine ({here} cores) at its present load", here, False))
+    lines = [
+        f"projected (specs one after the other; a worker starts in {startup:.1f} s, then trains "
+        "or plays; a trial waits only for its own networks):"
+    ]
+    for label, count, cpu in scenarios:
+        to_train = {n.key: n.cpu_seconds if cpu else n.seconds for n in networks if not n.cached}
+        parts = []
+        for spec in specs:
+            requires = plan_training(spec, expand(spec)).requires
+            mine = {
+                key: to_train.pop(key)
+                for label_keys in requires.values()
+                for key in label_keys
+                if key in to_train
+            }
+            groups = [
+                GroupTime(
+                    cost.cpu_seconds_per_trial if cpu else cost.seconds_per_trial,
+                    cost.trials,
+                    requires.get(cost.agent, frozenset()) & set(mine),
+                )
+                for cost in costs.get(spec.name, ())
+            ]
+            parts.append(project(list(mine.items()), groups, count, startup))
+        lines.append(f"  {label}: {combined(parts).text()}")
+    return lines

@@ -79,6 +79,16 @@ class Progress:
             f"{_rate_text(rate, self.unit)}  elapsed {_clock(elapsed)}  ETA {eta}{errors}"
         )
 
+    def note(self, text: str) -> None:
+        """Write one line of ``text`` above the status line (which is drawn again after it)."""
+        if self._tty:
+            width = len(self.line())
+            self.stream.write(f"\r{text:<{width}}\n")
+            self._draw(time.monotonic())
+        else:
+            self.stream.write(f"{text}\n")
+            self.stream.flush()
+
     def close(self) -> None:
         """Draw the final state (unless just drawn) and end the line."""
         if self._drawn != self.done:

@@ -13,9 +13,11 @@ from ns_pz.agents.learning.trained import Needed, prepare
 from ns_pz.experiments.backends import Backend
 from ns_pz.experiments.lock import locked
 from ns_pz.experiments.progress import Progress
+from ns_pz.experiments.projection import Forecast, samples_first
 from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.store import ResultStore
 from ns_pz.experiments.trials import Trial, expand
+from ns_pz.experiments.work import Trained, Training, plan_training
 
 
 @dataclass(frozen=True)
@@ -49,8 +51,13 @@ def run_spec(
 
     A trial whose file cannot be read (cut short) counts as not done and runs again; the file is
     named on ``progress``, as is any file in ``trials/`` that the store did not name (ignored).
-    ``out`` is locked for the run (:mod:`ns_pz.experiments.lock`). Trials run in worker
-    processes (see ``backend``); one whose process dies is recorded as an error row.
+    ``out`` is locked for the run (:mod:`ns_pz.experiments.lock`). The networks the trials
+    need and the cache lacks are trained by ``backend``'s workers, in parallel, and each trial
+    starts as soon as its own networks are ready (:mod:`ns_pz.experiments.work`). Trials run in
+    worker processes (see ``backend``); one whose process dies is recorded as an error row.
+    Each agent × cell plays its first trial early; once all have, a run with more than a
+    minute left says on ``progress`` how long the rest should take
+    (:class:`~ns_pz.experiments.projection.Forecast`).
 
     Raises:
         SpecError: ``out`` holds results of another spec, or of this one without ``resume``.
@@ -62,8 +69,9 @@ def run_spec(
         trials = expand(spec)
         finished = store.finished(spec.digest())
         todo = [trial for trial in trials if trial.key not in finished]
-        train_artefacts(spec, todo, progress, getattr(backend, "workers", 1))
+        training = plan_training(spec, todo, shown=progress is not None)
         if progress is not None:
+            _announce(spec, training, progress)
             for path, reason in store.unreadable():
                 progress.write(f"{path} is unreadable ({reason}); its trial runs again\n")
             for path, reason in store.strays():
@@ -72,10 +80,25 @@ def run_spec(
         if progress is not None:
             label = f"{spec.name} ({spec.size})"
             bar = Progress(len(trials), len(trials) - len(todo), label, progress)
+
+        def note(text: str) -> None:
+            if bar is not None:
+                bar.note(text)
+
+        def on_trained(result: Trained) -> None:
+            if result.error:
+                note(f"training {result.label} failed: {result.error}")
+            elif result.trained:
+                note(f"trained {result.label} in {result.seconds:.1f} s")
+
+        forecast = Forecast(todo, getattr(backend, "workers", 1))
         failed = 0
         try:
-            for _, row in backend.run(spec, todo):
+            for trial, row in backend.run(spec, samples_first(todo), training, on_trained):
                 store.write(row)
+                said = forecast.add(trial, row)
+                if said is not None:
+                    note(said)
                 ok = row["status"] == "ok"
                 failed += not ok
                 if bar is not None:
@@ -87,6 +110,18 @@ def run_spec(
             if bar is not None:
                 bar.close()
     return RunSummary(store.root, len(trials), len(trials) - len(todo), len(todo), failed)
+
+
+def _announce(spec: ExperimentSpec, training: Training, progress: TextIO) -> None:
+    """Say how many networks the run trains (cached ones are only loaded: not announced)."""
+    missing = len(training.missing)
+    if missing:
+        cached = len(training.networks) - missing
+        more = f" ({cached} cached)" if cached else ""
+        progress.write(
+            f"{spec.name}: training {missing} network(s){more}, trials that need none start "
+            "meanwhile\n"
+        )
 
 
 @dataclass(frozen=True)
@@ -123,14 +158,13 @@ def needed_networks(spec: ExperimentSpec, trials: list[Trial]) -> list[tuple[str
 def train_artefacts(
     spec: ExperimentSpec, trials: list[Trial], progress: TextIO | None = None, workers: int = 1
 ) -> list[TrainingCost]:
-    """Train, once each and here (before any worker starts), the networks ``trials`` need.
+    """Train, once each, the networks ``trials`` need, and play none (``ns-pz train``).
 
     Every distinct artefact is trained under its key's file lock (see
     :mod:`ns_pz.agents.learning.artefacts`), so concurrent runs sharing the cache train it once
-    too; the workers then only load it. Cached ones report the training time they recorded.
-    ``workers`` processes train distinct networks at once. Ray workers on other machines read
-    their own cache folder: share it (``NS_PZ_CACHE_DIR`` on a shared disk), or each machine
-    trains a missing network itself, once per machine.
+    too. Cached ones report the training time they recorded. ``workers`` processes train
+    distinct networks at once. (:func:`run_spec` trains the missing ones itself, in its
+    backend's workers, while trials that need none already run.)
     """
     needs = [need for _, need in needed_networks(spec, trials)]
     costs = []

@@ -1,0 +1,95 @@
+"""Wall and CPU time of one benchmark table on 1 and 2 workers, networks included.
+
+Each run starts with no trained network in the cache (compiled search kernels stay cached, as on
+any machine after its first run), so its time includes training every network the table needs.
+CPU time is the run's and its worker processes' (user + system). Run from the repository root::
+
+    python benchmarks/bench_scaling.py                          # quick FrozenLake single, 1 and 2
+    python benchmarks/bench_scaling.py --size full --workers 2  # one figure
+    python benchmarks/bench_scaling.py --project 16             # 1 and 2, then 16 projected
+
+``--project N`` projects ``N`` workers from the CPU times of the runs on 1 and 2 workers: the
+second worker's extra CPU (its start-up and every first use it repeats) is paid by each further
+worker, the work is shared evenly, and no worker can finish before the longest network is
+trained (its time in the 1-worker run's log, times the share of a core that run got: CPU over
+wall). A run on one idle core takes its CPU time.
+
+The cache used is ``--cache`` (default: a folder under the system's temporary folder, kept
+between calls so the compiled kernels are built once); the user's cache is never touched.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def run_once(spec: str, size: str, workers: int, cache: Path, extra: list[str]) -> dict:
+    """Run ``spec`` into a fresh folder with an empty artefact cache; wall and CPU seconds."""
+    shutil.rmtree(cache / "artefacts", ignore_errors=True)
+    out = Path(tempfile.mkdtemp(prefix="bench-scaling-"))
+    env = {**os.environ, "NS_PZ_CACHE_DIR": str(cache)}
+    argv = [sys.executable, "-m", "ns_pz.cli", "bench", "run", spec, "--size", size]
+    argv += ["--workers", str(workers), "--out", str(out), *extra]
+    load = os.getloadavg()[0]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    done = subprocess.run(argv, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    shutil.rmtree(out, ignore_errors=True)
+    if done.returncode not in (0, 1):
+        raise RuntimeError(f"{' '.join(argv)} failed:\n{done.stderr[-3000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return {"wall": wall, "cpu": cpu, "load": (load, os.getloadavg()[0]), "log": done.stderr}
+
+
+def main() -> None:
+    """Parse the options, time each worker count, print one line each."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--spec", default="frozenlake-single")
+    parser.add_argument("--size", default="quick", choices=("quick", "full"))
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--cache", default=str(Path(tempfile.gettempdir()) / "ns-pz-scaling"))
+    parser.add_argument("--log", action="store_true", help="print each run's stderr")
+    parser.add_argument("--project", type=int, default=None, help="project N workers (see above)")
+    args, extra = parser.parse_known_args()
+    cache = Path(args.cache)
+    results = {}
+    for workers in args.workers:
+        result = results[workers] = run_once(args.spec, args.size, workers, cache, extra)
+        if args.log:
+            print(result["log"])
+        print(
+            f"{args.spec} {args.size} --workers {workers}: wall {result['wall']:.1f} s, "
+            f"CPU {result['cpu']:.1f} s, load {result['load'][0]:.2f} -> {result['load'][1]:.2f}",
+            flush=True,
+        )
+    if args.project is not None and {1, 2} <= set(results):
+        print(projected(results[1], results[2], args.project))
+
+
+def projected(one: dict, two: dict, workers: int) -> str:
+    """``workers`` workers projected from the runs on 1 and 2 (see the module docstring)."""
+    extra = max(0.0, two["cpu"] - one["cpu"])
+    trained = [float(m) for m in re.findall(r"^trained .* in ([0-9.]+) s$", one["log"], re.M)]
+    longest = max(trained, default=0.0) * min(1.0, one["cpu"] / one["wall"])
+    cpu = one["cpu"] + (workers - 1) * extra
+    wall = max(longest, cpu / workers)
+    return (
+        f"projected on {workers} workers: CPU {cpu:.1f} s ({extra:.1f} s more per worker), "
+        f"longest training {longest:.1f} s, wall {wall:.1f} s: {one['cpu'] / wall:.1f}x one "
+        f"idle core ({one['cpu']:.1f} s)"
+    )
+
+
+if __name__ == "__main__":
+    main()

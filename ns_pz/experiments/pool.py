@@ -1,0 +1,160 @@
+"""Worker processes that the caller hands jobs to one by one, each to a worker it chooses.
+
+Unlike :class:`concurrent.futures.ProcessPoolExecutor`, the caller knows which worker runs
+what: it can give a worker more of the work it has already paid the first-use cost of (imports,
+compiled code, torch's start), and when a worker dies it knows the job that was running there.
+Workers are started with ``spawn`` and end themselves if the parent dies.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import signal
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection, wait
+from typing import Any
+
+from ns_pz.workers import die_with_parent
+
+
+class Worker:
+    """One worker process: what it runs now and what it has run (its warm labels)."""
+
+    def __init__(self, index: int) -> None:
+        context = multiprocessing.get_context("spawn")
+        self.index = index
+        self.conn, child = context.Pipe(duplex=True)
+        self.process = context.Process(target=_serve, args=(child, os.getpid()), daemon=True)
+        self.process.start()
+        child.close()  # the worker holds the only other end: EOF when it dies
+        self.started = False
+        self.job: Any = None
+        self.warm: set[str] = set()
+
+    def exitcode(self) -> int | None:
+        """How it ended (waits for it): a negative signal number or an exit code."""
+        self.process.join()
+        return self.process.exitcode
+
+
+def _serve(conn: Connection, parent: int) -> None:
+    """A worker's loop: say it started, then call each ``(function, args)`` and send back."""
+    die_with_parent(parent)
+    # One thread for torch (read when it is imported; a user's own setting is kept): the other
+    # cores run the other workers.
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    conn.send(None)
+    while True:
+        try:
+            message = conn.recv()
+        except EOFError:
+            return
+        if message is None:
+            return
+        function, args = message
+        conn.send(function(*args))
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How one job ended: its result, or its worker died (``exitcode`` says how)."""
+
+    worker: Worker
+    job: Any
+    result: Any = None
+    died: bool = False
+    exitcode: int | None = None
+
+
+class Pool:
+    """``size`` workers; :meth:`submit` a job to an idle one, :meth:`wait` for results.
+
+    Raises (from :meth:`wait`):
+        RuntimeError: A worker ended before any worker started (see ``cannot_start``).
+    """
+
+    def __init__(self, size: int, cannot_start: str) -> None:
+        self.workers = [Worker(index) for index in range(size)]
+        self.cannot_start = cannot_start
+        self._any_started = False
+
+    def idle(self) -> list[Worker]:
+        """Workers running nothing."""
+        return [worker for worker in self.workers if worker.job is None]
+
+    @property
+    def busy(self) -> bool:
+        """Whether any worker is running a job."""
+        return any(worker.job is not None for worker in self.workers)
+
+    def submit(self, worker: Worker, job: Any, function: Callable[..., Any], *args: Any) -> Worker:
+        """Run ``function(*args)`` on ``worker`` (idle), remembering ``job`` as its work.
+
+        Returns:
+            The worker that took it: ``worker``, or a fresh one in its place if it had died.
+        """
+        try:
+            worker.conn.send((function, args))
+        except OSError:  # it died while idle: a fresh one takes the job
+            worker.exitcode()
+            worker.conn.close()
+            worker = self.workers[worker.index] = Worker(worker.index)
+            worker.conn.send((function, args))
+        worker.job = job
+        return worker
+
+    def wait(self) -> list[Outcome]:
+        """Block until a worker sends a result or dies; what ended (a dead one is replaced)."""
+        while True:
+            watched = {worker.conn: worker for worker in self.workers}
+            finished = []
+            for conn in wait(list(watched)):
+                worker = watched[conn]  # type: ignore[index]
+                try:
+                    result = worker.conn.recv()
+                except (EOFError, OSError):
+                    outcome = self._died(worker)
+                    if outcome.job is not None:  # an idle one is only replaced
+                        finished.append(outcome)
+                    continue
+                if not worker.started:  # its first message: it has started
+                    worker.started = self._any_started = True
+                    continue
+                job, worker.job = worker.job, None
+                finished.append(Outcome(worker, job, result))
+            if finished:
+                return finished
+
+    def _died(self, worker: Worker) -> Outcome:
+        code = worker.exitcode()
+        if not worker.started and not self._any_started:
+            how = f"before they started (one {how_it_ended(code)})"
+            raise RuntimeError(self.cannot_start.format(how=how))
+        worker.conn.close()
+        self.workers[worker.index] = Worker(worker.index)
+        return Outcome(worker, worker.job, died=True, exitcode=code)
+
+    def close(self, clean: bool) -> None:
+        """Stop every worker: after telling it to end if ``clean``, else at once (terminate)."""
+        for worker in self.workers:
+            if clean:
+                with contextlib.suppress(OSError):
+                    worker.conn.send(None)
+            else:
+                worker.process.terminate()
+        for worker in self.workers:
+            worker.process.join()
+            worker.conn.close()
+
+
+def how_it_ended(exitcode: int | None) -> str:
+    """``"killed by signal SIGSEGV"`` or ``"exited with code 3"``, from a process's exit code."""
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"killed by signal {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"killed by signal {-exitcode}"
+    return f"exited with code {exitcode}"

@@ -1,0 +1,292 @@
+"""A run's work: networks before the trials that need them, batches of short trials."""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from pathlib import Path
+
+import pytest
+
+from ns_pz.experiments import LocalBackend, expand, load_spec
+from ns_pz.experiments.work import Batcher, Job, Schedule, Trained, Training, plan_training
+
+TINY = """
+version = 1
+name = "tiny"
+title = "tiny FrozenLake"
+env = "ns_pz/FrozenLake-v0"
+params = { slip = 0.7 }
+notifications = ["detailed", "none"]
+
+[change]
+kind = "single"
+param = "slip"
+first_step = 1
+to = [0.4]
+
+[sizes.quick]
+episodes = 3
+horizon = 20
+
+[[agents]]
+name = "random"
+
+[[agents]]
+name = "value_iteration"
+label = "VI"
+"""
+"""12 trials: 1 setting × 2 levels × 2 agents × 3 seeds."""
+
+
+@pytest.fixture
+def tiny(tmp_path: Path):
+    """The TINY spec, loaded."""
+    path = tmp_path / "tiny.toml"
+    path.write_text(TINY)
+    return load_spec(path, "quick")
+
+
+# -- batches -----------------------------------------------------------------------------------
+def test_a_batch_grows_to_the_target_time_of_its_agent() -> None:
+    """First one trial (nothing known), then as many as fit in the target, at most ``most``."""
+    batcher = Batcher(target=0.2, most=16)
+    assert batcher.size("a") == 1
+    batcher.record("a", 0.01)
+    batcher.record("a", 0.03)
+    assert batcher.size("a") == 10  # 0.2 s / 0.02 s
+    batcher.record("b", 1e-6)
+    assert batcher.size("b") == 16
+    batcher.record("c", 5.0)
+    assert batcher.size("c") == 1
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"), [({"target": 0}, "target=0 must be > 0"), ({"most": 0}, "most=0")]
+)
+def test_a_batcher_refuses_bad_settings(kwargs: dict, match: str) -> None:
+    """Settings out of range name the parameter and its value."""
+    with pytest.raises(ValueError, match=match):
+        Batcher(**kwargs)
+
+
+def test_a_batch_holds_one_agent_only(tiny) -> None:
+    """A batch ends where the next trial is another agent's, whatever the size allows."""
+    trials = expand(tiny)
+    batcher = Batcher(target=1.0)
+    for trial in trials:
+        batcher.record(trial.agent.label, 0.001)
+    ready = deque(trials)
+    batches = []
+    while ready:
+        batches.append(batcher.take(ready))
+    assert [t for batch in batches for t in batch] == trials
+    assert all(len({t.agent.label for t in batch}) == 1 for batch in batches)
+    assert [len(batch) for batch in batches] == [3, 3, 3, 3]
+
+
+# -- the schedule ----------------------------------------------------------------------------
+def _fake_training(tiny, label: str) -> Training:
+    """Pretend the agent ``label`` needs one missing network (borrowed from a real need)."""
+    from ns_pz.agents.learning.config import DDQNArgs
+    from ns_pz.agents.learning.trained import ddqn_needed
+
+    need = ddqn_needed(tiny.make_env(tiny.cells()[0]), DDQNArgs(total_steps=10))
+    key = need.request.key
+    return Training({key: need}, (key,), {label: frozenset({key})})
+
+
+def test_networks_start_first_and_their_trials_wait_for_them(tiny) -> None:
+    """The missing network is the first job; VI's trials start only once it is trained."""
+    training = _fake_training(tiny, "VI")
+    schedule = Schedule(tiny, expand(tiny), training)
+    first = schedule.next_job()
+    assert first is not None and first.need is training.networks[training.missing[0]]
+    started = []
+    while (job := schedule.next_job()) is not None:
+        started.extend(job.trials)
+    assert started and {t.agent.label for t in started} == {"random"}
+    assert not schedule.done
+    key = training.missing[0]
+    assert schedule.trained(Trained(key, "net", 1.0, True)) == []
+    while (job := schedule.next_job()) is not None:
+        started.extend(job.trials)
+    assert sorted(t.key for t in started) == sorted(t.key for t in expand(tiny))
+    assert schedule.done
+
+
+def test_the_trials_of_a_network_that_failed_become_error_rows(tiny) -> None:
+    """A failed training names the network and its error in each of its trials' rows."""
+    training = _fake_training(tiny, "VI")
+    schedule = Schedule(tiny, expand(tiny), training)
+    schedule.next_job()
+    rows = schedule.trained(Trained(training.missing[0], "DDQN net", 1.0, False, "OSError: x"))
+    assert len(rows) == 6 and {t.agent.label for t, _ in rows} == {"VI"}
+    assert all(r["status"] == "error" for _, r in rows)
+    assert "its network DDQN net could not be trained: OSError: x" in rows[0][1]["error"]
+
+
+def test_a_worker_gets_more_of_the_agent_it_has_played(tiny) -> None:
+    """First one trial of each agent × cell; then a worker keeps to the agent it knows."""
+    schedule = Schedule(tiny, expand(tiny))
+    samples = [schedule.next_job(), schedule.next_job(), schedule.next_job()]
+    assert all(job is not None and len(job.trials) == 1 for job in samples)
+    assert {job.trials[0].seed for job in samples if job} == {0}
+    last = schedule.next_job(warm={"VI"})  # the last sample left is VI's: it goes to VI's worker
+    assert last is not None and last.trials[0].agent.label == "VI"
+    job = schedule.next_job(warm={"VI"})
+    assert job is not None and {t.agent.label for t in job.trials} == {"VI"}
+    job = schedule.next_job(warm=set(), warm_counts={"VI": 1})  # a fresh worker: the other agent
+    assert job is not None and {t.agent.label for t in job.trials} == {"random"}
+
+
+def test_a_batch_whose_worker_died_plays_again_one_by_one(tiny) -> None:
+    """Trials handed back after their worker died come next, each in a job of its own."""
+    schedule = Schedule(tiny, expand(tiny))
+    first = schedule.next_job()
+    assert first is not None
+    again = list(expand(tiny)[4:6])
+    schedule.retry_alone(again)
+    assert [schedule.next_job(), schedule.next_job()] == [Job(trials=(t,)) for t in again]
+
+
+def test_a_spec_without_learners_trains_nothing(tiny) -> None:
+    """No learning agent: no network, nothing waits."""
+    training = plan_training(tiny, expand(tiny))
+    assert (dict(training.networks), training.missing) == ({}, ())
+
+
+# -- in a pool ---------------------------------------------------------------------------------
+LEARNER = """
+[[agents]]
+name = "ddqn"
+label = "DDQN"
+notifications = ["none"]
+params = { total_steps = 1500, learning_starts = 100 }
+
+[[agents]]
+name = "alphazero"
+label = "AZ"
+notifications = ["none"]
+params = { episodes = 2, iterations = 8, max_episode_steps = 20 }
+"""
+
+
+def test_networks_train_side_by_side_while_other_trials_run(tmp_path: Path, monkeypatch) -> None:
+    """Two networks on three workers train at once; trials needing none run on the third."""
+    pytest.importorskip("torch")
+    monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path / "cache"))
+    path = tmp_path / "learners.toml"
+    path.write_text(TINY + LEARNER)
+    experiment = load_spec(path, "quick")
+    trials = expand(experiment)
+    training = plan_training(experiment, trials)
+    assert len(training.missing) == 2
+    events: list[tuple[str, float, object]] = []
+    backend = LocalBackend(3)
+    on_trained = lambda result: events.append(("net", time.monotonic(), result))  # noqa: E731
+    for trial, row in backend.run(experiment, trials, training, on_trained):
+        assert row["status"] == "ok", row["error"]
+        events.append((trial.agent.label, time.monotonic(), row))
+    nets = [(at, result) for kind, at, result in events if kind == "net"]
+    assert [result.trained for _, result in nets] == [True, True]
+    (first_end, _), (second_end, second) = nets
+    assert second_end - second.seconds < first_end  # the second started before the first ended
+    order = [kind for kind, _, _ in events]
+    assert order.index("random") < order.index("net")  # no network needed: ran meanwhile
+    assert order.index("DDQN") > order.index("net")
+    assert len(order) == len(trials) + 2
+    assert len({row["trial"] for kind, _, row in events if kind != "net"}) == len(trials)
+
+
+# -- projecting a run's time -------------------------------------------------------------------
+def test_a_projection_trains_first_and_starts_trials_as_their_networks_land() -> None:
+    """Two networks (10 s, 4 s) on two workers; trials needing the short one fill in behind it."""
+    from ns_pz.experiments.projection import GroupTime, project
+
+    networks = [("short", 4.0), ("long", 10.0)]
+    groups = [
+        GroupTime(1.0, 6, frozenset({"short"})),  # 6 s of work, ready at 4 s
+        GroupTime(2.0, 1, frozenset({"long"})),  # ready at 10 s
+    ]
+    two = project(networks, groups, workers=2)
+    assert (two.networks, two.training_seconds, two.networks_ready) == (2, 14.0, 10.0)
+    assert (two.trials, two.trial_seconds) == (7, 8.0)
+    assert two.wall == 12.0  # the short trials end at 10 s, the long one at 10 + 2
+    one = project(networks, groups, workers=1, startup=3.0)
+    assert one.wall == 3.0 + 14.0 + 8.0  # all in a row, after the start-up
+    wide = project([], [GroupTime(1.0, 160)], workers=16, startup=2.0)
+    assert wide.wall == 12.0 and "no network to train" in wide.text()
+    with pytest.raises(ValueError, match="workers=0 must be an integer >= 1"):
+        project([], [], workers=0)
+
+
+def test_a_long_run_is_forecast_once_every_agent_and_cell_has_a_time(tiny) -> None:
+    """Each group's first trial goes first; after the last group's first row, one projection."""
+    from ns_pz.experiments.projection import Forecast, samples_first
+
+    trials = samples_first(expand(tiny))
+    assert [t.seed for t in trials[:4]] == [0, 0, 0, 0]  # 4 groups: one seed of each first
+    assert sorted(t.key for t in trials) == sorted(t.key for t in expand(tiny))
+    forecast = Forecast(trials, workers=2, long=10.0)
+    said = [forecast.add(trial, {"wall_time": 5.0}) for trial in trials]
+    assert said[:3] == [None] * 3 and all(s is None for s in said[4:])
+    assert said[3] is not None and "the other 8 trials take 40 s of work" in said[3]
+    assert "on 2 worker(s) at this machine's present load, wall 20 s more" in said[3]
+    short = Forecast(trials, workers=2, long=10.0)  # 8 × 0.1 s left: not a long run
+    assert not any(short.add(trial, {"wall_time": 0.1}) for trial in trials)
+
+
+def test_a_network_is_sent_as_data_to_a_cache_that_lacks_it(tmp_path: Path) -> None:
+    """What a Ray node lacking a network receives: it lands in its cache, checked as any other."""
+    import numpy as np
+    from ns_pz.agents.learning.artefacts import ArtefactRequest, exists, load, save
+
+    from ns_pz.experiments.work import install, payload
+
+    request = ArtefactRequest("ddqn", "Family()", {"slip": 0.7}, {"hidden": [4]}, 0, "test/1")
+    weights = {"w": np.arange(6.0).reshape(2, 3)}
+    save(request, weights, {"seconds": 1.5}, tmp_path / "here")
+    sent = payload(request, tmp_path / "here")
+    assert not exists(request, tmp_path / "node")
+    install([sent], tmp_path / "node")
+    assert exists(request, tmp_path / "node")
+    np.testing.assert_array_equal(load(request, tmp_path / "node")["w"], weights["w"])
+    install([sent], tmp_path / "node")  # already there: kept as it is
+    assert sent[2] == {"seconds": 1.5}
+
+
+def test_a_backend_in_a_with_block_keeps_its_workers_between_runs(tiny) -> None:
+    """Two runs in one block share the worker processes; after the block they are gone."""
+    trials = expand(tiny)
+    with LocalBackend(1) as backend:
+        first = [row for _, row in backend.run(tiny, trials)]
+        pool = backend._pool
+        assert pool is not None
+        (worker,) = pool.workers
+        second = [row for _, row in backend.run(tiny, trials)]
+        assert backend._pool is pool and pool.workers == [worker]
+        assert worker.warm == {"random", "VI"}
+    assert backend._pool is None and not worker.process.is_alive()
+    assert [r["return"] for r in first] == [r["return"] for r in second]
+    alone = LocalBackend(1)
+    list(alone.run(tiny, trials[:1]))
+    assert alone._pool is None  # outside a block nothing is kept
+
+
+def test_a_worker_that_dies_idle_is_replaced_and_the_run_goes_on(tiny) -> None:
+    """Killed between jobs, a kept worker is replaced at the next run, which loses nothing."""
+    import os
+    import signal
+
+    trials = expand(tiny)
+    with LocalBackend(1) as backend:
+        list(backend.run(tiny, trials[:2]))
+        assert backend._pool is not None
+        (worker,) = backend._pool.workers
+        os.kill(worker.process.pid, signal.SIGKILL)
+        worker.process.join()
+        rows = [row for _, row in backend.run(tiny, trials)]
+        assert backend._pool.workers[0] is not worker
+    assert sorted(r["trial"] for r in rows) == sorted(t.key for t in trials)
+    assert {r["status"] for r in rows} == {"ok"}
