@@ -7,42 +7,14 @@ import os
 from pathlib import Path
 
 import pytest
+from specs_for_tests import MCTS, RANDOM, tiny_spec
 
 from ns_pz import cli
 from ns_pz.cli import main
 from ns_pz.experiments import load_spec
 from ns_pz.experiments.estimate import estimate, plan
 
-TINY = """
-version = 1
-name = "tiny"
-title = "tiny FrozenLake"
-env = "ns_pz/FrozenLake-v0"
-params = { slip = 0.7 }
-notifications = ["detailed", "none"]
-
-[change]
-kind = "single"
-param = "slip"
-first_step = 1
-to = [0.4, 0.9]
-
-[sizes.quick]
-episodes = 4
-horizon = 30
-
-[sizes.full]
-episodes = 6
-horizon = 30
-
-[[agents]]
-name = "random"
-
-[[agents]]
-name = "mcts"
-label = "MCTS"
-params = { iterations = 200, depth = 30 }
-"""
+TINY = tiny_spec(RANDOM, MCTS, full_episodes=6)
 
 
 def write_spec(folder: Path, text: str = TINY) -> Path:

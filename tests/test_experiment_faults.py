@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import pytest
+from specs_for_tests import RANDOM, tiny_spec
 
 from ns_pz.cli import main
 from ns_pz.experiments import (
@@ -29,27 +30,7 @@ from ns_pz.experiments import (
 from ns_pz.experiments.backends import died_message
 from ns_pz.experiments.spec import MAX_TRIALS
 
-TINY = """
-version = 1
-name = "tiny"
-title = "tiny FrozenLake"
-env = "ns_pz/FrozenLake-v0"
-params = { slip = 0.7 }
-notifications = ["detailed", "none"]
-
-[change]
-kind = "single"
-param = "slip"
-first_step = 1
-to = [0.4, 0.9]
-
-[sizes.quick]
-episodes = 4
-horizon = 30
-
-[[agents]]
-name = "random"
-"""
+TINY = tiny_spec(RANDOM)
 """16 trials: 2 settings × 2 levels × 1 agent × 4 seeds."""
 
 

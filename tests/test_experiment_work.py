@@ -7,35 +7,12 @@ from collections import deque
 from pathlib import Path
 
 import pytest
+from specs_for_tests import RANDOM, VI, tiny_spec
 
 from ns_pz.experiments import LocalBackend, expand, load_spec
 from ns_pz.experiments.work import Batcher, Job, Schedule, Trained, Training, plan_training
 
-TINY = """
-version = 1
-name = "tiny"
-title = "tiny FrozenLake"
-env = "ns_pz/FrozenLake-v0"
-params = { slip = 0.7 }
-notifications = ["detailed", "none"]
-
-[change]
-kind = "single"
-param = "slip"
-first_step = 1
-to = [0.4]
-
-[sizes.quick]
-episodes = 3
-horizon = 20
-
-[[agents]]
-name = "random"
-
-[[agents]]
-name = "value_iteration"
-label = "VI"
-"""
+TINY = tiny_spec(RANDOM, VI, to=(0.4,), episodes=3, horizon=20)
 """12 trials: 1 setting × 2 levels × 2 agents × 3 seeds."""
 
 

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from specs_for_tests import RANDOM, VI_GAMMA, tiny_spec
 
 from ns_pz.cli import main
 from ns_pz.experiments import (
@@ -27,36 +28,7 @@ from ns_pz.experiments import (
 from ns_pz.experiments.lock import DirectoryLocked
 from ns_pz.experiments.report import table
 
-TINY = """
-version = 1
-name = "tiny"
-title = "tiny FrozenLake"
-env = "ns_pz/FrozenLake-v0"
-params = { slip = 0.7 }
-notifications = ["detailed", "none"]
-
-[change]
-kind = "single"
-param = "slip"
-first_step = 1
-to = [0.4, 0.9]
-
-[sizes.quick]
-episodes = 4
-horizon = 30
-
-[sizes.full]
-episodes = 6
-horizon = 30
-
-[[agents]]
-name = "random"
-
-[[agents]]
-name = "value_iteration"
-label = "VI"
-quick = { gamma = 0.9 }
-"""
+TINY = tiny_spec(RANDOM, VI_GAMMA, full_episodes=6)
 
 
 def write_spec(folder: Path, text: str = TINY, name: str = "tiny.toml") -> Path:

@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from specs_for_tests import RANDOM, VI_GAMMA, tiny_spec
 
 from ns_pz.experiments import (
     ExperimentSpec,
@@ -17,32 +18,7 @@ from ns_pz.experiments import (
     run_spec,
 )
 
-SPEC = """
-version = 1
-name = "tiny"
-title = "tiny FrozenLake"
-env = "ns_pz/FrozenLake-v0"
-params = { slip = 0.7 }
-notifications = ["detailed", "none"]
-
-[change]
-kind = "single"
-param = "slip"
-first_step = 1
-to = [0.4, 0.9]
-
-[sizes.quick]
-episodes = 4
-horizon = 20
-
-[[agents]]
-name = "random"
-
-[[agents]]
-name = "value_iteration"
-label = "VI"
-quick = { gamma = 0.9 }
-"""
+SPEC = tiny_spec(RANDOM, VI_GAMMA, horizon=20)
 """32 trials: 2 settings × 2 levels × 2 agents × 4 seeds."""
 
 
