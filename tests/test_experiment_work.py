@@ -267,3 +267,28 @@ def test_a_worker_that_dies_idle_is_replaced_and_the_run_goes_on(tiny) -> None:
         assert backend._pool.workers[0] is not worker
     assert sorted(r["trial"] for r in rows) == sorted(t.key for t in trials)
     assert {r["status"] for r in rows} == {"ok"}
+
+
+def _child_exit_code() -> int:
+    """Start a process of its own and return how it ended (a trial may do this)."""
+    import multiprocessing
+
+    child = multiprocessing.get_context("spawn").Process(target=int)
+    child.start()
+    child.join()
+    return child.exitcode
+
+
+def test_a_job_in_a_worker_may_start_processes_of_its_own() -> None:
+    """Workers are daemons to their parent, yet a trial may start processes (SubprocVecEnv)."""
+    from ns_pz.experiments.pool import Pool
+
+    pool = Pool(1, "cannot start: {how}")
+    try:
+        pool.submit(pool.idle()[0], "job", _child_exit_code)
+        outcomes = pool.wait()
+        while not outcomes:  # the first message only says the worker started
+            outcomes = pool.wait()
+        assert [(o.job, o.died, o.result) for o in outcomes] == [("job", False, 0)]
+    finally:
+        pool.close(clean=True)

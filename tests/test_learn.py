@@ -452,3 +452,22 @@ def test_the_batched_agent_env_trains_under_domain_randomisation_and_reproduces(
     assert trained_mean > max(50.0, 3 * untrained_mean)  # seen: 83.8 against 10.2
     with pytest.raises(ValueError, match="autoreset_mode='NextStep'"):
         make_agent_vec_env(CARTPOLE, 2, autoreset_mode="NextStep")
+
+
+def test_a_snapshot_of_a_policy_leaves_torch_s_generator_where_it_was():
+    """RARL's snapshots build a policy anew; its initial weights must not consume SB3's stream.
+
+    Otherwise taking a pool snapshot would change every later sample of the training.
+    """
+    import torch
+
+    from ns_pz.learning.alternating import _frozen
+
+    model = make_model(ns_pz.single_agent(CARTPOLE, DECISION, **POLE), TrainArgs(), seed=0)
+    torch.manual_seed(5)
+    expected = torch.rand(3)
+    torch.manual_seed(5)
+    snapshot = _frozen(model.policy)
+    assert torch.equal(torch.rand(3), expected)
+    weights, copied = model.policy.state_dict(), snapshot.state_dict()
+    assert all(torch.equal(weights[k], copied[k]) for k in weights)

@@ -43,6 +43,9 @@ class Worker:
 def _serve(conn: Connection, parent: int) -> None:
     """A worker's loop: say it started, then call each ``(function, args)`` and send back."""
     die_with_parent(parent)
+    # The parent starts workers as daemons (ended at its exit); in here the flag would forbid
+    # a trial's own processes (an SB3 SubprocVecEnv, a pool of its own), so it is cleared.
+    multiprocessing.current_process().daemon = False
     # One thread for torch (read when it is imported; a user's own setting is kept): the other
     # cores run the other workers.
     os.environ.setdefault("OMP_NUM_THREADS", "1")

@@ -327,9 +327,14 @@ def _frozen(policy: Any) -> Any:
 
     Built anew from the policy's constructor arguments and weights (as SB3's own ``save``
     does): a deep copy fails right after a gradient step, when the policy still holds the
-    last action distribution, whose tensors are not graph leaves.
+    last action distribution, whose tensors are not graph leaves. The constructor's initial
+    weights draw from torch's global generator, which SB3 seeded for training: the draw is
+    made in a fork of it, so taking a snapshot changes no later sample.
     """
-    frozen = type(policy)(**policy._get_constructor_parameters())
+    import torch
+
+    with torch.random.fork_rng(devices=[]):
+        frozen = type(policy)(**policy._get_constructor_parameters())
     frozen.load_state_dict(policy.state_dict())
     frozen.set_training_mode(False)
     return frozen
