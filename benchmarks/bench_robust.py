@@ -321,6 +321,7 @@ def job(task_name: str, method: str, seed: int, quick: bool, out: Path) -> dict[
     }
     record = {
         "task": task_name,
+        "quick": quick,
         "method": method,
         "seed": seed,
         "scores": scores,
@@ -330,7 +331,9 @@ def job(task_name: str, method: str, seed: int, quick: bool, out: Path) -> dict[
         "report": report.to_dict(),
     }
     path = out / f"{method}_{seed}.json"
-    path.write_text(json.dumps(record))
+    partial = path.with_suffix(".part")
+    partial.write_text(json.dumps(record))
+    os.replace(partial, path)  # a job killed mid-write leaves no truncated record
     return record
 
 
@@ -575,6 +578,9 @@ def main(argv: list[str] | None = None) -> None:
                 record = json.loads(path.read_text())
                 if record.get("task", "cartpole") != args.task:
                     raise SystemExit(f"{path} is of task {record.get('task', 'cartpole')!r}")
+                if record.get("quick", False) != args.quick:
+                    size = "--quick" if args.quick else "full"
+                    raise SystemExit(f"{path} is not of this run's size ({size}); use a new --out")
                 records.append(record)
             else:
                 todo.append((method, seed))

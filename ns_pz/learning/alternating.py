@@ -258,9 +258,11 @@ def rarl(
                 _AgentSide(env_id, met_now, env_kwargs), n_envs, seed + _PHASE_SEEDS * index
             )
             agent_model.set_env(agent_env)
-        agent_model.learn(agent_args.total_timesteps, reset_num_timesteps=False)
-        if subproc:
-            agent_env.close()
+        try:
+            agent_model.learn(agent_args.total_timesteps, reset_num_timesteps=False)
+        finally:
+            if subproc:
+                agent_env.close()
         agent_seconds = time.perf_counter() - started
         # The nature the agent has just met joins the pool before it learns on: the agent's
         # next round meets it beside its successor (the current nature).
@@ -277,9 +279,11 @@ def rarl(
                 factory, n_envs, seed + _PHASE_SEEDS * index + _PHASE_SEEDS // 2
             )
             nature_model.set_env(nature_env)
-        nature_model.learn(nature_args.total_timesteps, reset_num_timesteps=False)
-        if subproc:
-            nature_env.close()
+        try:
+            nature_model.learn(nature_args.total_timesteps, reset_num_timesteps=False)
+        finally:
+            if subproc:
+                nature_env.close()
         nature_seconds = time.perf_counter() - started
         returns = {
             label: _returns(_AgentSide(env_id, nature, env_kwargs)(), agent_model, eval_seeds)
