@@ -530,6 +530,37 @@ def throughput(steps: int) -> str:
         seconds = time.perf_counter() - started
         label = "1" if n_envs == 1 else f"{n_envs}, {vec_env}"
         lines.append(f"| {label} | {steps / seconds:.0f} | {seconds:.1f} |")
+    return "\n".join(lines) + "\n\n" + agent_throughput(steps)
+
+
+def agent_throughput(steps: int) -> str:
+    """The agent's PPO training under domain randomisation: 8 single envs or the batched core.
+
+    CPU seconds of ``steps`` steps (CartPole's PPO settings), SB3's ``DummyVecEnv`` of
+    :func:`ns_pz.single_agent` envs against :func:`ns_pz.learning.make_agent_vec_env`, each
+    after a short untimed run (the first one in a process pays torch's and SB3's first use).
+    """
+    from ns_pz.learning import make_agent_vec_env, make_seat_env, train
+    from ns_pz.learning.seats import single_agent
+
+    task = TASKS["cartpole"]
+    kwargs = {**env_kwargs(task), "nature": task.training_box()}
+    builders = {
+        "8 single envs (DummyVecEnv)": lambda: make_seat_env(
+            lambda: single_agent(task.env_id, "agent", **kwargs), n_envs=8
+        ),
+        "8 in the batched core (make_agent_vec_env)": lambda: make_agent_vec_env(
+            task.env_id, 8, **kwargs
+        ),
+    }
+    for build in builders.values():  # first use of torch and SB3's modules, not timed
+        train(build(), ppo(task, 512), seed=0)
+    lines = ["| agent's environments | CPU seconds | steps/CPU-s |", "|---|---|---|"]
+    for label, build in builders.items():
+        started = time.process_time()
+        train(build(), ppo(task, steps), seed=0)
+        seconds = time.process_time() - started
+        lines.append(f"| {label} | {seconds:.1f} | {steps / seconds:.0f} |")
     return "\n".join(lines)
 
 

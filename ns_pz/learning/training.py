@@ -142,10 +142,12 @@ def make_agent_vec_env(env_id: str, n_envs: int, **env_kwargs: Any) -> VecEnv:
     ``VecEnv`` (:class:`~ns_pz.learning.sb3_vec.SB3VecEnv`), with SB3's episode statistics
     (``VecMonitor``). For the agent against a nature that needs no live opponent (scripted,
     domain-randomised, a trained :class:`~ns_pz.nature.PolicyNature`), it replaces
-    ``make_seat_env(lambda: single_agent(env_id, "agent", ...), n_envs)``: PPO on CartPole with
-    8 environments and domain randomisation took 4.5 CPU-seconds for 16,384 steps against 6.4
-    with SB3's ``DummyVecEnv`` of single envs. Where a family has no batched kernel the views
-    are stepped one by one inside, with the same result.
+    ``make_seat_env(lambda: single_agent(env_id, "agent", ...), n_envs)``. For PPO on CartPole
+    the learner's updates dominate: 16,384 steps with 8 environments and domain randomisation
+    took 3.1–3.8 CPU-seconds here against 3.3–4.1 with SB3's ``DummyVecEnv`` of single envs
+    (three runs each, ``benchmarks/bench_robust.py --throughput``), no measurable difference;
+    the batched step pays where the environment, not the learner, is the cost. Where a family
+    has no batched kernel the views are stepped one by one inside, with the same result.
 
     Args:
         env_id: A registered id.
