@@ -403,7 +403,11 @@ def test_rarl_in_subprocesses_meets_frozen_opponents_and_reproduces():
             **POLE,
         )
 
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
     first, second = run(), run()
+    assert isinstance(first.agent.get_env(), SubprocVecEnv)  # the last phase's, now closed
+    assert isinstance(first.nature.get_env(), SubprocVecEnv)
     assert [entry.population for entry in first.log] == [1, 2]
     assert first.agent.num_timesteps == first.nature.num_timesteps == 128
     for model in ("agent", "nature"):
