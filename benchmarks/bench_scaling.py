@@ -25,6 +25,7 @@ import os
 import re
 import resource
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -32,24 +33,33 @@ import time
 from pathlib import Path
 
 
-def run_once(spec: str, size: str, workers: int, cache: Path, extra: list[str]) -> dict:
-    """Run ``spec`` into a fresh folder with an empty artefact cache; wall and CPU seconds."""
+def run_once(
+    spec: str, size: str, workers: int, cache: Path, extra: list[str], log: Path | None = None
+) -> dict:
+    """Run ``spec`` into a fresh folder with an empty artefact cache; wall and CPU seconds.
+
+    The run's stderr (its progress and training lines) goes to ``log`` as it is written, so a
+    run stopped from outside still leaves its progress behind; by default to a temporary file.
+    """
     shutil.rmtree(cache / "artefacts", ignore_errors=True)
     out = Path(tempfile.mkdtemp(prefix="bench-scaling-"))
     env = {**os.environ, "NS_PZ_CACHE_DIR": str(cache)}
     argv = [sys.executable, "-m", "ns_pz.cli", "bench", "run", spec, "--size", size]
     argv += ["--workers", str(workers), "--out", str(out), *extra]
+    log = log or out / "stderr.log"
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    done = subprocess.run(argv, env=env, capture_output=True, text=True)
+    with open(log, "w") as stream:
+        done = subprocess.run(argv, env=env, stdout=subprocess.DEVNULL, stderr=stream)
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    text = log.read_text()
     shutil.rmtree(out, ignore_errors=True)
     if done.returncode not in (0, 1):
-        raise RuntimeError(f"{' '.join(argv)} failed:\n{done.stderr[-3000:]}")
+        raise RuntimeError(f"{' '.join(argv)} failed:\n{text[-3000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return {"wall": wall, "cpu": cpu, "load": (load, os.getloadavg()[0]), "log": done.stderr}
+    return {"wall": wall, "cpu": cpu, "load": (load, os.getloadavg()[0]), "log": text}
 
 
 def main() -> None:
@@ -60,12 +70,19 @@ def main() -> None:
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--cache", default=str(Path(tempfile.gettempdir()) / "ns-pz-scaling"))
     parser.add_argument("--log", action="store_true", help="print each run's stderr")
+    parser.add_argument(
+        "--log-dir", default=None, help="write each run's stderr to DIR/WORKERS.log as it runs"
+    )
     parser.add_argument("--project", type=int, default=None, help="project N workers (see above)")
     args, extra = parser.parse_known_args()
+    # Stopped from outside (`timeout`), end the run in hand too: subprocess.run kills its child
+    # when the SystemExit passes through it.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     cache = Path(args.cache)
     results = {}
     for workers in args.workers:
-        result = results[workers] = run_once(args.spec, args.size, workers, cache, extra)
+        log = Path(args.log_dir) / f"{workers}.log" if args.log_dir else None
+        result = results[workers] = run_once(args.spec, args.size, workers, cache, extra, log)
         if args.log:
             print(result["log"])
         print(
