@@ -8,22 +8,18 @@ from ns_pz.agents import evaluate
 from ns_pz.agents.baselines import RandomAgent
 from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.learning.config import DDQNArgs
-
-import ns_pz
-
-torch = pytest.importorskip("torch")
-from ns_pz.agents.learning.ddqn import (  # noqa: E402
+from ns_pz.agents.learning.ddqn import (
+    DoubleDQN,
     double_dqn_target,
     dqn_target,
-    gradient_step,
     new_learner,
-    td_loss,
     train_ddqn,
 )
-from ns_pz.agents.learning.ddqn_wn import network_from  # noqa: E402
-from ns_pz.agents.learning.replay import Batch, ReplayBuffer  # noqa: E402
-from ns_pz.agents.learning.seeding import training_seeds  # noqa: E402
-from ns_pz.agents.learning.trained import training_env  # noqa: E402
+from ns_pz.agents.learning.replay import Batch, ReplayBuffer
+from ns_pz.agents.learning.seeding import training_seeds
+from ns_pz.agents.learning.trained import training_env
+
+import ns_pz
 
 FROZEN_LAKE = {"slip": [0.7, 0.15, 0.15]}
 
@@ -35,10 +31,10 @@ def _tmp_cache(tmp_path, monkeypatch):
 
 def test_double_target_differs_from_vanilla_exactly_where_the_argmaxes_differ():
     """Online net picks, target net evaluates; vanilla takes the target net's max."""
-    online = torch.tensor([[1.0, 5.0, 2.0], [4.0, 0.0, 1.0], [0.0, 3.0, 9.0], [2.0, 1.0, 0.0]])
-    target = torch.tensor([[7.0, 1.0, 3.0], [6.0, 2.0, 8.0], [1.0, 2.0, 5.0], [3.0, 4.0, 1.0]])
-    rewards = torch.tensor([1.0, 0.0, -1.0, 0.5])
-    terminated = torch.tensor([0.0, 0.0, 0.0, 1.0])
+    online = np.array([[1.0, 5.0, 2.0], [4.0, 0.0, 1.0], [0.0, 3.0, 9.0], [2.0, 1.0, 0.0]])
+    target = np.array([[7.0, 1.0, 3.0], [6.0, 2.0, 8.0], [1.0, 2.0, 5.0], [3.0, 4.0, 1.0]])
+    rewards = np.array([1.0, 0.0, -1.0, 0.5])
+    terminated = np.array([0.0, 0.0, 0.0, 1.0])
     gamma = 0.9
     double = double_dqn_target(online, target, rewards, terminated, gamma)
     vanilla = dqn_target(target, rewards, terminated, gamma)
@@ -46,22 +42,27 @@ def test_double_target_differs_from_vanilla_exactly_where_the_argmaxes_differ():
     # row 1: online argmax 0 -> target 6.0; vanilla max 8.0
     # row 2: online argmax 2 -> target 5.0 = the target's own max: equal
     # row 3: terminal, no bootstrap: equal
-    torch.testing.assert_close(double, torch.tensor([1.9, 5.4, 3.5, 0.5]))
-    torch.testing.assert_close(vanilla, torch.tensor([7.3, 7.2, 3.5, 0.5]))
+    np.testing.assert_allclose(double, [1.9, 5.4, 3.5, 0.5])
+    np.testing.assert_allclose(vanilla, [7.3, 7.2, 3.5, 0.5])
     assert (double != vanilla).tolist() == [True, True, False, False]
 
 
-def _table_network(q_table):
-    """A net whose Q of one-hot state ``s`` is ``q_table[s]`` (the hidden layer passes it on)."""
-    q_table = np.asarray(q_table, dtype=np.float32)
+def _table_weights(q_table):
+    """Weights whose Q of one-hot state ``s`` is ``q_table[s]`` (the hidden layer passes it on)."""
+    q_table = np.asarray(q_table, dtype=np.float64)
     n, a = q_table.shape
-    weights = {
-        "q.0.weight": np.eye(n, dtype=np.float32),
-        "q.0.bias": np.zeros(n, dtype=np.float32),
+    return {
+        "q.0.weight": np.eye(n),
+        "q.0.bias": np.zeros(n),
         "q.1.weight": q_table.T.copy(),
-        "q.1.bias": np.zeros(a, dtype=np.float32),
+        "q.1.bias": np.zeros(a),
     }
-    return network_from(weights, "q")
+
+
+def _table_learner(online, target, args):
+    learner = DoubleDQN.from_weights(_table_weights(online), "q", args)
+    learner.target[:] = DoubleDQN.from_weights(_table_weights(target), "q", args).params
+    return learner
 
 
 def _tiny_batch():
@@ -81,45 +82,151 @@ def test_td_loss_is_the_double_dqn_loss_on_a_hand_computed_batch():
     (the target net's max, 8: y = 5) gives (25 + 1) / 2 = 13; swapped roles (the target net
     picks 2, the online net values it 4: y = 3) 5; the online net alone (6: y = 4) 8.5.
     """
-    online = _table_network([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 6.0, 4.0]])
-    target = _table_network([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [5.0, 2.0, 8.0]])
+    learner = _table_learner(
+        [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [1.0, 6.0, 4.0]],
+        [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [5.0, 2.0, 8.0]],
+        DDQNArgs(gamma=0.5, hidden=(3,)),
+    )
     _, buffer = _tiny_batch()
     batch = Batch(
         buffer.features, buffer.actions, buffer.rewards, buffer.next_features, buffer.terminated
     )
-    assert td_loss(online, target, batch, 0.5).item() == pytest.approx(2.5)
+    assert learner.loss_and_gradient(batch) == pytest.approx(2.5)
 
 
 def test_a_gradient_step_polyak_averages_a_separate_target():
     """After one step the target is τ·online_new + (1-τ)·target_old, not the online net."""
-    online = _table_network([[0.0, 3.0, 0.0], [0.0, 0.0, 0.0], [1.0, 6.0, 4.0]])
-    target = _table_network([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [5.0, 2.0, 8.0]])
-    old = [p.detach().clone() for p in target.parameters()]
-    optimizer = torch.optim.SGD(online.parameters(), lr=0.1)
+    learner = _table_learner(
+        [[0.0, 3.0, 0.0], [0.0, 0.0, 0.0], [1.0, 6.0, 4.0]],
+        [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [5.0, 2.0, 8.0]],
+        DDQNArgs(gamma=0.5, tau=0.25, hidden=(3,)),
+    )
+    old = learner.target.copy()
     batch, _ = _tiny_batch()
-    args = DDQNArgs(gamma=0.5, tau=0.25, hidden=(3,))
-    gradient_step(online, target, optimizer, batch, args)
-    for t, o, t_old in zip(target.parameters(), online.parameters(), old, strict=True):
-        torch.testing.assert_close(t, 0.25 * o + 0.75 * t_old)
+    learner.gradient_step(batch)
+    assert not np.array_equal(learner.params, learner.target)
+    np.testing.assert_allclose(learner.target, 0.25 * learner.params + 0.75 * old, rtol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_gradient_steps_match_torch_autograd_and_adam(seed):
+    """Loss, gradient, Adam step (with weight decay) and Polyak update equal torch's in float64.
+
+    Three steps of a two-hidden-layer net on a random batch, against ``nn.Linear`` layers
+    holding the same weights, ``F.mse_loss`` to the Double-DQN target, ``backward`` and
+    ``torch.optim.Adam``: the hand-written backward pass and optimiser are the textbook ones.
+    """
+    torch = pytest.importorskip("torch")
+    rng = np.random.default_rng(seed)
+    args = DDQNArgs(hidden=(8, 6), gamma=0.9, tau=0.1, weight_decay=1e-3, learning_rate=1e-2)
+    learner = new_learner(5, 3, args, seed)
+    learner.target += rng.normal(size=learner.size) * 0.1
+    size = 7
+    batch = Batch(
+        rng.normal(size=(size, 5)).astype(np.float32),
+        rng.integers(3, size=size),
+        rng.normal(size=size).astype(np.float32),
+        rng.normal(size=(size, 5)).astype(np.float32),
+        (rng.random(size) < 0.3).astype(np.float32),
+    )
+
+    def torch_net(layers):
+        modules = []
+        for w, b in layers:
+            linear = torch.nn.Linear(*w.shape, dtype=torch.float64)
+            with torch.no_grad():
+                linear.weight.copy_(torch.from_numpy(w.T.copy()))
+                linear.bias.copy_(torch.from_numpy(b.copy()))
+            modules += [linear, torch.nn.ReLU()]
+        return torch.nn.Sequential(*modules[:-1])
+
+    def flat(network):
+        linears = [m for m in network if isinstance(m, torch.nn.Linear)]
+        return np.concatenate(
+            [
+                np.concatenate([m.weight.detach().numpy().T.ravel(), m.bias.detach().numpy()])
+                for m in linears
+            ]
+        )
+
+    def flat_grad(network):
+        linears = [m for m in network if isinstance(m, torch.nn.Linear)]
+        return np.concatenate(
+            [
+                np.concatenate([m.weight.grad.numpy().T.ravel(), m.bias.grad.numpy()])
+                for m in linears
+            ]
+        )
+
+    online, target = torch_net(learner.layers), torch_net(learner.target_layers)
+    optimizer = torch.optim.Adam(
+        online.parameters(), lr=args.learning_rate, weight_decay=args.weight_decay
+    )
+    as_tensor = lambda a: torch.from_numpy(np.asarray(a, dtype=np.float64))  # noqa: E731
+    for _ in range(3):
+        with torch.no_grad():
+            chosen = online(as_tensor(batch.next_features)).argmax(1, keepdim=True)
+            bootstrap = target(as_tensor(batch.next_features)).gather(1, chosen).squeeze(1)
+            y = (
+                as_tensor(batch.rewards)
+                + args.gamma * (1 - as_tensor(batch.terminated)) * bootstrap
+            )
+        taken = online(as_tensor(batch.features))
+        taken = taken.gather(1, torch.from_numpy(batch.actions)[:, None]).squeeze(1)
+        loss = torch.nn.functional.mse_loss(taken, y)
+        optimizer.zero_grad()
+        loss.backward()
+        assert learner.loss_and_gradient(batch) == pytest.approx(loss.item(), rel=1e-12)
+        np.testing.assert_allclose(learner.grad, flat_grad(online), rtol=1e-9, atol=1e-14)
+        optimizer.step()
+        with torch.no_grad():
+            for t, o in zip(target.parameters(), online.parameters(), strict=True):
+                t.mul_(1 - args.tau).add_(o, alpha=args.tau)
+        learner.gradient_step(batch)
+        np.testing.assert_allclose(learner.params, flat(online), rtol=1e-9, atol=1e-14)
+        np.testing.assert_allclose(learner.target, flat(target), rtol=1e-9, atol=1e-14)
 
 
 def test_a_new_learner_has_a_separate_target_equal_to_the_online_net():
-    """The target network is a copy, not the online module (NS-Gym shares one module)."""
-    online, target, optimizer = new_learner(4, 2, DDQNArgs(hidden=(8,)))
-    assert target is not online
-    for t, o in zip(target.parameters(), online.parameters(), strict=True):
-        assert t is not o and torch.equal(t, o)
-    assert [p for group in optimizer.param_groups for p in group["params"]] == list(
-        online.parameters()
-    )
+    """The target network is a copy, not the online parameters (NS-Gym shares one module)."""
+    learner = new_learner(4, 2, DDQNArgs(hidden=(8,)), 0)
+    assert learner.target is not learner.params
+    assert np.array_equal(learner.target, learner.params)
+    assert [w.shape for w, _ in learner.layers] == [(4, 8), (8, 2)]
+    bound = 1.0 / np.sqrt(4)
+    assert np.abs(learner.layers[0][0]).max() <= bound  # torch's Linear default init
+    assert not np.array_equal(learner.params, new_learner(4, 2, DDQNArgs(hidden=(8,)), 1).params)
+
+
+def test_learners_refuse_weights_that_do_not_chain():
+    """A layer whose input is not the previous layer's output is named."""
+    weights = {
+        "q.0.weight": np.zeros((8, 4)),
+        "q.0.bias": np.zeros(8),
+        "q.1.weight": np.zeros((2, 7)),
+        "q.1.bias": np.zeros(2),
+    }
+    with pytest.raises(ValueError, match="layer q.1 has mismatched shapes"):
+        DoubleDQN.from_weights(weights, "q", DDQNArgs())
+    with pytest.raises(ValueError, match="no 2-d layers x.0"):
+        DoubleDQN.from_weights(weights, "x", DDQNArgs())
+
+
+def test_exported_weights_load_back_unchanged():
+    """``export`` and ``from_weights`` are inverses (torch's ``Linear.weight`` layout)."""
+    learner = new_learner(3, 2, DDQNArgs(hidden=(5, 4)), 7)
+    weights = learner.export("q")
+    assert [weights[f"q.{i}.weight"].shape for i in range(3)] == [(5, 3), (4, 5), (2, 4)]
+    again = DoubleDQN.from_weights(weights, "q", DDQNArgs())
+    assert np.array_equal(again.params, learner.params)
 
 
 def test_training_seeds_are_independent_streams():
-    """The generator, the env seed and the torch seed differ, and all follow the seed."""
-    rng, env_seed, torch_seed = training_seeds(3)
+    """The generator, the env seed and the initialisation seed differ, and all follow the seed."""
+    rng, env_seed, init_seed = training_seeds(3)
     again = training_seeds(3)
-    assert (env_seed, torch_seed) == again[1:] and rng.random() == again[0].random()
-    assert len({env_seed, torch_seed, 3}) == 3
+    assert (env_seed, init_seed) == again[1:] and rng.random() == again[0].random()
+    assert len({env_seed, init_seed, 3}) == 3
     # the env is not seeded with the generator's own integer (same stream, shifted by a draw)
     first = training_seeds(3)[0].integers(2**31, size=4)
     assert not np.array_equal(first, np.random.default_rng(3).integers(2**31, size=4))

@@ -7,14 +7,13 @@ import pytest
 from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.exact import policy_values, start_value, theta_trajectory
 from ns_pz.agents.learning.config import DDQNArgs
+from ns_pz.agents.learning.ddqn import DoubleDQN
+from ns_pz.agents.learning.ddqn_wn import improves
 from ns_pz.agents.learning.q_agent import DDQNAgent, ddqn_q_network
 
 import ns_pz
 from ns_pz.experiments.spec import Cell, load_spec
 from ns_pz.nature import DiscreteScheduler, DistributionStepWiseUpdate, ScriptedNature
-
-torch = pytest.importorskip("torch")
-from ns_pz.agents.learning.ddqn_wn import improves, network_from  # noqa: E402
 
 SMALL = {"total_steps": 1500, "learning_starts": 100}
 
@@ -61,7 +60,7 @@ def test_a_notified_change_fine_tunes_within_its_budget():
     observation, *_ = env.step(1)  # ... and is notified in the observation after it
     assert observation["env_change"].any()
     agent = _agent(env, model_steps=120, gradient_steps=10)
-    before = [p.detach().clone() for p in agent.online.parameters()]
+    before = agent.learner.params.copy()
     model = env.planning_model()
     state = model.get_state()
     agent.act(observation, model)
@@ -69,9 +68,8 @@ def test_a_notified_change_fine_tunes_within_its_budget():
     assert agent.last_fine_tuning["model_steps"] == 120
     assert agent.last_fine_tuning["gradient_steps"] == 10
     assert model.get_state() == state  # the handed model is left where it was
-    kept = [p.detach().numpy() for p in agent.online.parameters()]
     if agent.last_fine_tuning["accepted_round"] == 0:  # the pre-change network was kept
-        assert all(np.array_equal(b.numpy(), a) for b, a in zip(before, kept, strict=True))
+        assert np.array_equal(before, agent.learner.params)
 
 
 def test_fine_tuning_is_reproducible_from_the_agent_generator():
@@ -84,7 +82,7 @@ def test_fine_tuning_is_reproducible_from_the_agent_generator():
         observation, *_ = env.step(1)
         agent = _agent(env, model_steps=80, gradient_steps=5)
         agent.act(observation, env.planning_model())
-        results.append([p.detach().numpy().copy() for p in agent.online.parameters()])
+        results.append([agent.learner.params.copy()])
         results[-1].append(agent.buffer.features[: agent.buffer.size].copy())
     assert all(np.array_equal(a, b) for a, b in zip(*results, strict=True))
 
@@ -119,13 +117,11 @@ def test_without_validation_the_last_fine_tuned_network_is_kept():
     env.step(1)
     observation, *_ = env.step(1)
     agent = _agent(env, model_steps=40, gradient_steps=5, checks=1, validate=False)
-    before = [p.detach().clone() for p in agent.online.parameters()]
+    before = agent.learner.params.copy()
     agent.act(observation, env.planning_model())
     assert agent.last_fine_tuning["scoring_steps"] == 0
     assert agent.last_fine_tuning["accepted_round"] == 1
-    assert any(
-        not torch.equal(b, a) for b, a in zip(before, agent.online.parameters(), strict=True)
-    )
+    assert not np.array_equal(before, agent.learner.params)
 
 
 @pytest.mark.parametrize(
@@ -155,24 +151,6 @@ def test_an_interval_spaces_the_fine_tunings_and_keeps_changes_pending(interval,
     assert tuned == tuned_at
 
 
-def test_acting_leaves_torchs_thread_count_as_it_was():
-    """Fine-tuning runs on one thread, and gives the caller's thread count back."""
-    import torch
-
-    env = _env()
-    observation, _ = env.reset(seed=0)
-    observation, *_ = env.step(1)
-    observation, *_ = env.step(1)
-    before = torch.get_num_threads()
-    torch.set_num_threads(2)
-    try:
-        agent = _agent(env, model_steps=20, gradient_steps=2)
-        agent.act(observation, env.planning_model())
-        assert agent.fine_tunings == 1 and torch.get_num_threads() == 2
-    finally:
-        torch.set_num_threads(before)
-
-
 def _table_weights(q_table):
     """Exported weights of a one-hidden-layer net whose Q of one-hot state s is ``q_table[s]``."""
     q_table = np.asarray(q_table, dtype=np.float32)
@@ -194,41 +172,33 @@ def test_the_fine_tuning_step_uses_the_double_dqn_target():
     (5) 12.25.
     """
     env = _env()
-    agent = _agent(env, ddqn={**SMALL, "gamma": 0.5, "tau": 0.25})
+    agent = _agent(env, ddqn={**SMALL, "gamma": 0.5, "tau": 0.25, "weight_decay": 0.0})
     online = [[0.0, 0.0, 4.0, 0.0], [1.0, 5.0, 2.0, 0.0]]
     target = [[0.0, 0.0, 0.0, 0.0], [7.0, 3.0, 4.0, 0.0]]
-    agent.online = network_from(_table_weights(online), "q")
-    agent.target = network_from(_table_weights(target), "q")
+    args = agent.learner.args
+    agent.learner = DoubleDQN.from_weights(_table_weights(online), "q", args)
+    agent.learner.target[:] = DoubleDQN.from_weights(_table_weights(target), "q", args).params
     agent.buffer = type(agent.buffer)(4, 2)
     agent.buffer.add(np.array([1, 0], np.float32), 2, 1.0, np.array([0, 1], np.float32), False)
-    recorded = []
-    optimizer = torch.optim.SGD(agent.online.parameters(), lr=0.0)
-    original_step = optimizer.step
-
-    def step():
-        recorded.append([p.grad.clone() for p in agent.online.parameters()])
-        original_step()
-
-    optimizer.step = step
-    assert agent._update(optimizer) == 1
-    # d loss / d Q(0, 2) = 2 (4 - 2.5) = 3, and Q(0, 2) = W[2, 0] of the output layer (the
+    batch = agent.buffer.sample(1, np.random.default_rng(0))
+    assert agent.learner.loss_and_gradient(batch) == pytest.approx(2.25)
+    # d loss / d Q(0, 2) = 2 (4 - 2.5) = 3, and Q(0, 2) = W[0, 2] of the output layer (the
     # hidden layer passes the one-hot state through): vanilla -7, swapped 5, online alone 1
-    grad_output = recorded[0][2].numpy()
-    assert grad_output[2, 0] == pytest.approx(3.0) and grad_output[2, 1] == 0.0
-    # the Polyak update moved the target a quarter of the way to the (unchanged) online net
+    grad_output = agent.learner.grad_layers[1][0]
+    assert grad_output[0, 2] == pytest.approx(3.0) and grad_output[0, 1] == 0.0
+    old_target = agent.learner.target.copy()
+    assert agent._update() == 1
+    # the Polyak update moved the target a quarter of the way to the online net after its step
     np.testing.assert_allclose(
-        agent.target(torch.eye(2)).detach().numpy(),
-        0.75 * np.asarray(target) + 0.25 * np.asarray(online),
-        rtol=1e-6,
+        agent.learner.target, 0.75 * old_target + 0.25 * agent.learner.params, rtol=1e-12
     )
 
 
 def test_the_target_network_is_a_separate_copy():
-    """After reset the target net equals the online net but is not the same module."""
+    """After reset the target net equals the online net but is not the same array."""
     agent = _agent(_env())
-    assert agent.target is not agent.online
-    for t, o in zip(agent.target.parameters(), agent.online.parameters(), strict=True):
-        assert t is not o and torch.equal(t, o)
+    assert agent.learner.target is not agent.learner.params
+    assert np.array_equal(agent.learner.target, agent.learner.params)
 
 
 def test_data_collection_starts_and_restarts_at_the_current_state():
@@ -267,8 +237,7 @@ def told_of_a_change(env, seed, theta):
 
 def _exact_greedy_value(agent, env, theta, horizon):
     n = int(env.family.observation_space.n)
-    with torch.no_grad():
-        actions = agent.online(torch.eye(n)).argmax(dim=1).numpy()
+    actions = agent.learner.q(np.eye(n)).argmax(axis=1)
     values = policy_values(env.family, [theta] * horizon, np.tile(actions, (horizon, 1)))
     return start_value(env.family, values)
 
@@ -300,24 +269,28 @@ def test_fine_tuning_at_an_unchanged_theta_keeps_the_greedy_value(spec_name, tot
 
 
 def test_after_a_change_fine_tuning_is_worth_at_least_the_untuned_network():
-    """FrozenLake p 0.7 -> 0.6: the mean exact value over seeds does not fall, and rises here.
+    """FrozenLake p 0.7 -> 0.6: the mean exact value rises; a worse network is kept rarely.
 
-    Measured with these settings: 0.375 before; after 0.375 / 0.690 / 0.375 / 0.375 on four
-    agent seeds (one candidate accepted).
+    Three θ_0 networks (DDQN seeds 0-2) × four agent seeds. Measured with these settings
+    (exact values before -> after): seed 0's network 0.386 -> 0.386 on three agent seeds and
+    0.309 on one (a candidate that scored better on the 8 sampled episodes and is worse in
+    expectation); seed 1's 0.0 -> 0.371 / 0.600 / 0.600 / 0.420; seed 2's 0.364 unchanged.
     """
     spec = load_spec("frozenlake-single", "quick")
     env = spec.make_env(Cell("p=0.6", "detailed", 1))
-    hyper = {**QUICK_FINE_TUNING, "ddqn": {"total_steps": 3000, "learning_starts": 200}}
     theta = theta_trajectory(env, 0, spec.horizon)[-1]
     befores, afters = [], []
-    for seed in range(4):
-        agent = agent_entry("ddqn_wn").make(env, hyper)
-        agent.reset(np.random.default_rng(seed))
-        befores.append(_exact_greedy_value(agent, env, theta, spec.horizon))
-        agent.act(*told_of_a_change(env, seed, theta))
-        afters.append(_exact_greedy_value(agent, env, theta, spec.horizon))
-    assert np.mean(afters) >= np.mean(befores)
+    for ddqn_seed in range(3):
+        ddqn = {"total_steps": 3000, "learning_starts": 200, "seed": ddqn_seed}
+        for seed in range(4):
+            agent = agent_entry("ddqn_wn").make(env, {**QUICK_FINE_TUNING, "ddqn": ddqn})
+            agent.reset(np.random.default_rng(seed))
+            befores.append(_exact_greedy_value(agent, env, theta, spec.horizon))
+            agent.act(*told_of_a_change(env, seed, theta))
+            afters.append(_exact_greedy_value(agent, env, theta, spec.horizon))
+    befores, afters = np.array(befores), np.array(afters)
     assert np.mean(afters) > np.mean(befores) + 0.05, (befores, afters)
+    assert np.sum(afters < befores - 1e-9) <= 2, (befores, afters)
 
 
 def test_a_time_budget_replaces_the_step_counts():

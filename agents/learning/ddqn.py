@@ -1,41 +1,48 @@
-"""Double DQN (van Hasselt et al. 2016) trained on the stationary base env θ_0 (imports torch).
+"""Double DQN (van Hasselt et al. 2016) trained on the stationary base env θ_0, in NumPy.
 
-The training loop reads top to bottom like cleanrl's ``dqn.py``; the one
-thing that makes it *Double* DQN is :func:`double_dqn_target`: the online network chooses the
-next action, the target network evaluates it (NS-Gym's ``DDQN`` uses the vanilla
-``max_a' Q_target`` target, and in practice no separate target network at all).
+The training loop reads top to bottom like cleanrl's ``dqn.py``; the one thing that makes it
+*Double* DQN is :func:`double_dqn_target`: the online network chooses the next action, the
+target network evaluates it (NS-Gym's ``DDQN`` uses the vanilla ``max_a' Q_target`` target, and
+in practice no separate target network at all).
 
 Departures from NS-Gym's loop, each for a reason: ε decays linearly over a fraction of the
 training *steps* (cleanrl) rather than ×0.999 per episode, so a short quick-size run still ends
 greedy; truncation at ``max_episode_steps`` is not treated as termination (the target
 bootstraps through it). The loss is the MSE of the spec, optimised by Adam with weight decay.
 
-Acting with the trained network needs numpy only: :class:`ns_pz.agents.learning.agents.DDQNAgent`.
+**NumPy, not torch.** The networks are MLPs of one to three layers of 64–128 units trained on
+batches of 64, where torch's cost per call (autograd, module dispatch, the optimiser's
+per-tensor loop: about 1 ms per gradient step on one core) dwarfs the arithmetic.
+:class:`DoubleDQN` keeps every parameter of a network in one flat float64 vector (the layers are
+views of it), so Adam and the Polyak update are a handful of vector operations, and writes the
+backward pass of the ReLU MLP out by hand (tested against torch's autograd and ``Adam``). The
+same learner fine-tunes DDQN-WN's network when notified, so neither needs torch. Initial
+weights follow torch's ``nn.Linear`` default, uniform in ``±1/sqrt(fan_in)``, drawn from their
+own stream of the training seed.
 """
 
 from __future__ import annotations
 
-import copy
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict
 from typing import Any
 
 import numpy as np
-import torch
-import torch.nn.functional as F
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import feature_size, features
-from ns_pz.agents.learning.networks import export, mlp, seeded_torch
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer
 from ns_pz.agents.learning.seeding import training_seeds
 
 from ns_pz.views import NSGymEnv
 
+ADAM_BETAS = (0.9, 0.999)
+ADAM_EPS = 1e-8
+
 
 def dqn_target(
-    next_q_target: torch.Tensor, rewards: torch.Tensor, terminated: torch.Tensor, gamma: float
-) -> torch.Tensor:
+    next_q_target: np.ndarray, rewards: np.ndarray, terminated: np.ndarray, gamma: float
+) -> np.ndarray:
     """The vanilla DQN target ``r + γ (1 - done) max_a' Q_target(s', a')`` (for comparison).
 
     Args:
@@ -44,29 +51,207 @@ def dqn_target(
         terminated: ``[batch]``, 1.0 where the transition ended the episode.
         gamma: Discount.
     """
-    return rewards + gamma * (1.0 - terminated) * next_q_target.max(dim=1).values
+    return rewards + gamma * (1.0 - terminated) * next_q_target.max(axis=1)
 
 
 def double_dqn_target(
-    next_q_online: torch.Tensor,
-    next_q_target: torch.Tensor,
-    rewards: torch.Tensor,
-    terminated: torch.Tensor,
+    next_q_online: np.ndarray,
+    next_q_target: np.ndarray,
+    rewards: np.ndarray,
+    terminated: np.ndarray,
     gamma: float,
-) -> torch.Tensor:
+) -> np.ndarray:
     """The Double-DQN target ``r + γ (1 - done) Q_target(s', argmax_a' Q_online(s', a'))``.
 
     Args:
         next_q_online: ``[batch, num_actions]`` online-network values of the next states (they
-            choose the action).
+            choose the action; ties go to the first, as ``argmax`` does).
         next_q_target: ``[batch, num_actions]`` target-network values (they evaluate it).
         rewards: ``[batch]``.
         terminated: ``[batch]``, 1.0 where the transition ended the episode.
         gamma: Discount.
     """
-    chosen = next_q_online.argmax(dim=1, keepdim=True)
-    evaluated = next_q_target.gather(1, chosen).squeeze(1)
+    chosen = next_q_online.argmax(axis=1)
+    evaluated = next_q_target[np.arange(len(chosen)), chosen]
     return rewards + gamma * (1.0 - terminated) * evaluated
+
+
+class DoubleDQN:
+    """An online Q-network, its target network and Adam's state, as flat float64 vectors.
+
+    Layer ``i`` computes ``h @ W_i + b_i`` with ReLU between layers (``W_i`` is ``[in, out]``,
+    the transpose of torch's ``Linear.weight``); ``params``, ``target`` and Adam's moments are
+    vectors of all weights and biases, layer by layer, and the layers are views into them.
+
+    Args:
+        widths: ``inputs, hidden..., outputs``.
+        params: The online network's flat parameters (copied).
+        args: Learning rate, weight decay, γ, τ.
+
+    Raises:
+        ValueError: Fewer than two widths, a width below 1, or ``params`` of the wrong length.
+    """
+
+    def __init__(self, widths: Sequence[int], params: np.ndarray, args: DDQNArgs) -> None:
+        widths = [int(w) for w in widths]
+        if len(widths) < 2 or min(widths) < 1:
+            raise ValueError(f"widths={widths!r} must list at least two widths, each >= 1")
+        self.widths = widths
+        self.size = sum(a * b + b for a, b in zip(widths[:-1], widths[1:], strict=True))
+        params = np.asarray(params, dtype=np.float64)
+        if params.shape != (self.size,):
+            raise ValueError(
+                f"params has shape {params.shape}; widths {widths} need ({self.size},)"
+            )
+        self.args = args
+        self.params = params.copy()
+        self.target = params.copy()
+        self.grad = np.zeros(self.size)
+        self.layers = self._views(self.params)
+        self.target_layers = self._views(self.target)
+        self.grad_layers = self._views(self.grad)
+        self.reset_optimizer()
+
+    @classmethod
+    def initial(cls, widths: Sequence[int], args: DDQNArgs, rng: np.random.Generator) -> DoubleDQN:
+        """A fresh network (torch's ``Linear`` default: uniform in ``±1/sqrt(fan_in)``)."""
+        parts = []
+        for fan_in, fan_out in zip(widths[:-1], widths[1:], strict=True):
+            bound = 1.0 / np.sqrt(fan_in)
+            parts.append(rng.uniform(-bound, bound, fan_in * fan_out))
+            parts.append(rng.uniform(-bound, bound, fan_out))
+        return cls(widths, np.concatenate(parts), args)
+
+    @classmethod
+    def from_weights(
+        cls, weights: Mapping[str, np.ndarray], prefix: str, args: DDQNArgs
+    ) -> DoubleDQN:
+        """A learner starting from exported ``prefix.i.weight``/``prefix.i.bias`` arrays.
+
+        Raises:
+            ValueError: No layer under ``prefix``, or shapes that do not chain.
+        """
+        shapes = []
+        while f"{prefix}.{len(shapes)}.weight" in weights:
+            shapes.append(np.shape(weights[f"{prefix}.{len(shapes)}.weight"]))
+        if not shapes or any(len(s) != 2 for s in shapes):
+            raise ValueError(f"weights have no 2-d layers {prefix}.0, {prefix}.1, ...")
+        widths = [shapes[0][1], *(s[0] for s in shapes)]
+        parts = []
+        for i, (out, inputs) in enumerate(shapes):
+            weight = np.asarray(weights[f"{prefix}.{i}.weight"], dtype=np.float64)
+            bias = np.asarray(weights[f"{prefix}.{i}.bias"], dtype=np.float64)
+            if inputs != widths[i] or bias.shape != (out,):
+                raise ValueError(f"layer {prefix}.{i} has mismatched shapes {weight.shape}")
+            parts += [weight.T.reshape(-1), bias]
+        return cls(widths, np.concatenate(parts), args)
+
+    def _views(self, flat: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        views, at = [], 0
+        for a, b in zip(self.widths[:-1], self.widths[1:], strict=True):
+            views.append((flat[at : at + a * b].reshape(a, b), flat[at + a * b : at + a * b + b]))
+            at += a * b + b
+        return views
+
+    def reset_optimizer(self) -> None:
+        """Zero Adam's moments and step count (a fresh ``torch.optim.Adam``)."""
+        self.m = np.zeros(self.size)
+        self.v = np.zeros(self.size)
+        self.steps = 0
+
+    def sync_target(self) -> None:
+        """The target network becomes a copy of the online one."""
+        self.target[:] = self.params
+
+    def q(self, x: np.ndarray, target: bool = False) -> np.ndarray:
+        """Q-values of feature rows ``x`` (``[batch, inputs]`` or ``[inputs]``)."""
+        h = np.asarray(x, dtype=np.float64)
+        layers = self.target_layers if target else self.layers
+        last = len(layers) - 1
+        for i, (w, b) in enumerate(layers):
+            h = h @ w + b
+            if i < last:
+                h = np.maximum(h, 0.0)
+        return h
+
+    def greedy(self, x: np.ndarray) -> int:
+        """The online network's best action for one feature vector (ties: the first)."""
+        return int(np.argmax(self.q(x)))
+
+    def loss_and_gradient(self, batch: Batch) -> float:
+        """The TD loss of ``batch`` (MSE to the Double-DQN target); its gradient in ``grad``."""
+        y = double_dqn_target(
+            self.q(batch.next_features),
+            self.q(batch.next_features, target=True),
+            batch.rewards.astype(np.float64),
+            batch.terminated.astype(np.float64),
+            self.args.gamma,
+        )
+        hidden = [np.asarray(batch.features, dtype=np.float64)]
+        last = len(self.layers) - 1
+        for i, (w, b) in enumerate(self.layers):
+            z = hidden[-1] @ w + b
+            hidden.append(np.maximum(z, 0.0) if i < last else z)
+        rows = np.arange(len(y))
+        error = hidden[-1][rows, batch.actions] - y
+        delta = np.zeros_like(hidden[-1])
+        delta[rows, batch.actions] = 2.0 * error / len(y)
+        for i in range(last, -1, -1):
+            w, _ = self.layers[i]
+            gw, gb = self.grad_layers[i]
+            np.matmul(hidden[i].T, delta, out=gw)
+            delta.sum(axis=0, out=gb)
+            if i:
+                delta = (delta @ w.T) * (hidden[i] > 0.0)
+        return float(np.mean(error * error))
+
+    def gradient_step(self, batch: Batch) -> float:
+        """One Adam step on the TD loss of ``batch``, then the Polyak update of the target.
+
+        Adam as ``torch.optim.Adam`` with L2 weight decay (added to the gradient) and bias
+        correction; the target moves ``target <- τ online + (1 - τ) target``.
+
+        Returns:
+            The loss before the step.
+        """
+        loss = self.loss_and_gradient(batch)
+        args = self.args
+        beta1, beta2 = ADAM_BETAS
+        self.steps += 1
+        g = self.grad
+        if args.weight_decay:
+            g += args.weight_decay * self.params
+        self.m *= beta1
+        self.m += (1.0 - beta1) * g
+        self.v *= beta2
+        self.v += (1.0 - beta2) * g * g
+        correction1 = 1.0 - beta1**self.steps
+        correction2 = 1.0 - beta2**self.steps
+        denominator = np.sqrt(self.v) / np.sqrt(correction2) + ADAM_EPS
+        self.params -= (args.learning_rate / correction1) * self.m / denominator
+        self.target *= 1.0 - args.tau
+        self.target += args.tau * self.params
+        return loss
+
+    def export(self, prefix: str) -> dict[str, np.ndarray]:
+        """The online network as ``{prefix.i.weight, prefix.i.bias}`` (torch's layout)."""
+        out: dict[str, np.ndarray] = {}
+        for i, (w, b) in enumerate(self.layers):
+            out[f"{prefix}.{i}.weight"] = w.T.copy()
+            out[f"{prefix}.{i}.bias"] = b.copy()
+        return out
+
+
+def new_learner(inputs: int, num_actions: int, args: DDQNArgs, seed: int) -> DoubleDQN:
+    """A fresh learner for ``inputs`` features and ``num_actions`` actions, drawn from ``seed``.
+
+    Raises:
+        ValueError: ``args.hidden`` is None (fill it in with :meth:`DDQNArgs.for_family`).
+    """
+    if args.hidden is None:
+        raise ValueError(f"args.hidden={args.hidden!r} must be filled in (DDQNArgs.for_family)")
+    widths = [inputs, *args.hidden, num_actions]
+    return DoubleDQN.initial(widths, args, np.random.default_rng(seed))
 
 
 def train_ddqn(
@@ -79,8 +264,7 @@ def train_ddqn(
 
     Everything random comes from ``seed``, split by :func:`training_seeds` into independent
     streams: the env's episodes, ε-greedy and replay sampling (a numpy generator), the network
-    initialisation (a forked torch generator). Torch runs on one thread (the benchmark's
-    workers use the other cores).
+    initialisation.
 
     Args:
         env: The stationary training environment.
@@ -96,43 +280,40 @@ def train_ddqn(
     """
     space = env.family.observation_space
     num_actions = int(env.action_space.n)  # type: ignore[attr-defined]  # Discrete
-    rng, env_seed, torch_seed = training_seeds(seed)
+    rng, env_seed, init_seed = training_seeds(seed)
     start = time.perf_counter()
-    with seeded_torch(torch_seed):
-        q_network, target_network, optimizer = new_learner(feature_size(space), num_actions, args)
-        buffer = ReplayBuffer(args.buffer_size, feature_size(space))
-        returns: list[float] = []
-        episode_return = 0.0
+    learner = new_learner(feature_size(space), num_actions, args, init_seed)
+    buffer = ReplayBuffer(args.buffer_size, feature_size(space))
+    returns: list[float] = []
+    episode_return = 0.0
 
-        observation, _ = env.reset(seed=env_seed)
-        x = features(space, observation["state"])
-        for step in range(args.total_steps):
-            # ε-greedy action, ε decaying linearly to its floor
-            fraction = min(1.0, step / max(1.0, args.exploration_fraction * args.total_steps))
-            epsilon = args.epsilon_start + fraction * (args.epsilon_end - args.epsilon_start)
-            if rng.random() < epsilon:
-                action = int(rng.integers(num_actions))
-            else:
-                with torch.no_grad():
-                    action = int(q_network(torch.from_numpy(x)).argmax())
+    observation, _ = env.reset(seed=env_seed)
+    x = features(space, observation["state"])
+    for step in range(args.total_steps):
+        # ε-greedy action, ε decaying linearly to its floor
+        fraction = min(1.0, step / max(1.0, args.exploration_fraction * args.total_steps))
+        epsilon = args.epsilon_start + fraction * (args.epsilon_end - args.epsilon_start)
+        if rng.random() < epsilon:
+            action = int(rng.integers(num_actions))
+        else:
+            action = learner.greedy(x)
 
-            observation, reward, terminated, truncated, _ = env.step(action)
-            next_x = features(space, observation["state"])
-            buffer.add(x, action, float(reward), next_x, terminated)
-            x = next_x
-            episode_return += float(reward)
-            if terminated or truncated:
-                returns.append(episode_return)
-                episode_return = 0.0
-                observation, _ = env.reset()
-                x = features(space, observation["state"])
+        observation, reward, terminated, truncated, _ = env.step(action)
+        next_x = features(space, observation["state"])
+        buffer.add(x, action, float(reward), next_x, terminated)
+        x = next_x
+        episode_return += float(reward)
+        if terminated or truncated:
+            returns.append(episode_return)
+            episode_return = 0.0
+            observation, _ = env.reset()
+            x = features(space, observation["state"])
 
-            # a gradient step every `train_every` steps once the buffer holds a batch
-            if step >= args.learning_starts and step % args.train_every == 0:
-                batch = buffer.sample(args.batch_size, rng)
-                gradient_step(q_network, target_network, optimizer, batch, args)
-            if progress is not None and progress(step + 1, args.total_steps):
-                break
+        # a gradient step every `train_every` steps once the buffer holds a batch
+        if step >= args.learning_starts and step % args.train_every == 0:
+            learner.gradient_step(buffer.sample(args.batch_size, rng))
+        if progress is not None and progress(step + 1, args.total_steps):
+            break
 
     info: dict[str, Any] = {
         "seconds": time.perf_counter() - start,
@@ -140,73 +321,4 @@ def train_ddqn(
         "last_returns_mean": float(np.mean(returns[-20:])) if returns else None,
         "args": asdict(args),
     }
-    return export(q_network, "q"), info
-
-
-def new_learner(
-    inputs: int, num_actions: int, args: DDQNArgs
-) -> tuple[torch.nn.Sequential, torch.nn.Sequential, torch.optim.Optimizer]:
-    """A fresh online network, a separate target network equal to it, and Adam on the online one.
-
-    Draws the initial weights from torch's global generator (seed it first: ``seeded_torch``).
-
-    Raises:
-        ValueError: ``args.hidden`` is None (fill it in with :meth:`DDQNArgs.for_family`).
-    """
-    if args.hidden is None:
-        raise ValueError(f"args.hidden={args.hidden!r} must be filled in (DDQNArgs.for_family)")
-    q_network = mlp(inputs, args.hidden, num_actions)
-    target_network = copy.deepcopy(q_network)
-    optimizer = torch.optim.Adam(
-        q_network.parameters(), lr=args.learning_rate, weight_decay=args.weight_decay
-    )
-    return q_network, target_network, optimizer
-
-
-def td_loss(
-    online: torch.nn.Module, target: torch.nn.Module, batch: Batch, gamma: float
-) -> torch.Tensor:
-    """The mean squared error between ``Q_online(s, a)`` and the Double-DQN target of ``batch``.
-
-    The target (no gradient) takes the next action from ``online`` and its value from
-    ``target`` (:func:`double_dqn_target`).
-    """
-    next_features = torch.from_numpy(batch.next_features)
-    with torch.no_grad():
-        y = double_dqn_target(
-            online(next_features),
-            target(next_features),
-            torch.from_numpy(batch.rewards),
-            torch.from_numpy(batch.terminated),
-            gamma,
-        )
-    q_taken = online(torch.from_numpy(batch.features))
-    q_taken = q_taken.gather(1, torch.from_numpy(batch.actions)[:, None]).squeeze(1)
-    return F.mse_loss(q_taken, y)
-
-
-def gradient_step(
-    online: torch.nn.Module,
-    target: torch.nn.Module,
-    optimizer: torch.optim.Optimizer,
-    batch: Batch,
-    args: DDQNArgs,
-) -> float:
-    """One Adam step on :func:`td_loss`, then the Polyak update of ``target`` (rate ``args.tau``).
-
-    Returns:
-        The loss before the step.
-    """
-    loss = td_loss(online, target, batch, args.gamma)
-    optimizer.zero_grad()
-    loss.backward()
-    optimizer.step()
-    soft_update(target, online, args.tau)
-    return loss.item()
-
-
-def soft_update(target: torch.nn.Module, online: torch.nn.Module, tau: float) -> None:
-    """``target <- tau * online + (1 - tau) * target``, parameter by parameter."""
-    with torch.no_grad():
-        for t, o in zip(target.parameters(), online.parameters(), strict=True):
-            t.mul_(1.0 - tau).add_(o, alpha=tau)
+    return learner.export("q"), info

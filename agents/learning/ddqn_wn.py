@@ -1,11 +1,12 @@
-"""DDQN with notification: the θ_0 Q-network, fine-tuned on each notified change (torch).
+"""DDQN with notification: the θ_0 Q-network, fine-tuned on each notified change.
 
 The paper's DDQN with notification. When the observation flags a change, the agent collects
 transitions in the planning model handed over (at ``detailed`` it has the new θ), ε-greedy from
 the current state and back to the current state whenever a simulated episode ends, and makes
 Double-DQN updates on them; it then acts greedily. Fixed from NS-Gym: ε is used (NS-Gym collects
 greedily), a restart stays under the new θ at the current state (NS-Gym's ``env.reset()`` went
-back to θ_0), and the target network is a separate copy.
+back to θ_0), and the target network is a separate copy. The updates are those of the θ_0
+training (:class:`ns_pz.agents.learning.ddqn.DoubleDQN`, NumPy: no torch needed to act).
 
 **Validated fine-tuning.** Gradient steps on a few hundred transitions gathered around one
 state cannot re-learn a Q-function; they move the shared layers, and that flips greedy choices
@@ -50,19 +51,16 @@ The fine-tuned network lasts for the rest of the episode; :meth:`reset` restores
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
-import torch
 from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
-from ns_pz.agents.learning.ddqn import gradient_step
+from ns_pz.agents.learning.ddqn import DoubleDQN
 from ns_pz.agents.learning.features import features
-from ns_pz.agents.learning.networks import mlp, one_thread
 from ns_pz.agents.learning.q_agent import check_fine_tuning
 from ns_pz.agents.learning.replay import ReplayBuffer
 
@@ -72,19 +70,6 @@ ACCEPT_Z = 2.0
 
 #: Transitions the fine-tuning buffer holds (over all fine-tunings of one episode).
 BUFFER_CAPACITY = 20_000
-
-
-def network_from(weights: dict[str, np.ndarray], prefix: str) -> torch.nn.Sequential:
-    """A torch MLP holding exported ``prefix.i.weight``/``prefix.i.bias`` arrays."""
-    count = sum(1 for name in weights if name.startswith(prefix) and name.endswith(".weight"))
-    shapes = [weights[f"{prefix}.{i}.weight"].shape for i in range(count)]
-    network = mlp(shapes[0][1], [shape[0] for shape in shapes[:-1]], shapes[-1][0])
-    linears = [m for m in network if isinstance(m, torch.nn.Linear)]
-    with torch.no_grad():
-        for i, layer in enumerate(linears):
-            layer.weight.copy_(torch.from_numpy(np.asarray(weights[f"{prefix}.{i}.weight"])))
-            layer.bias.copy_(torch.from_numpy(np.asarray(weights[f"{prefix}.{i}.bias"])))
-    return network
 
 
 def improves(candidate: np.ndarray, kept: np.ndarray, z: float = ACCEPT_Z) -> bool:
@@ -172,8 +157,7 @@ class FineTunedDDQNAgent(Agent):
     def reset(self, rng: np.random.Generator) -> None:
         """Back to the θ_0 network, with a fresh buffer."""
         super().reset(rng)
-        self.online = network_from(self.weights, "q")
-        self.target = copy.deepcopy(self.online)
+        self.learner = DoubleDQN.from_weights(self.weights, "q", self.args)
         size = len(features(self.space, self.space.sample()))
         self.buffer = ReplayBuffer(BUFFER_CAPACITY, size)
         self.fine_tunings = 0
@@ -188,33 +172,25 @@ class FineTunedDDQNAgent(Agent):
             ValueError: A fine-tuning is due and no model was handed over.
         """
         self.pending = self.pending or bool(np.any(observation["env_change"]))
-        with one_thread():  # the caller's torch thread count is left as it was
-            if self.pending and self.wait <= 0:
-                if model is None:
-                    raise ValueError("DDQN-WN needs the planning model on a notified change")
-                self._fine_tune(model)
-                self.pending, self.wait = False, self.interval
-            self.wait -= 1
-            return self._greedy(features(self.space, observation["state"]))
-
-    def _greedy(self, x: np.ndarray) -> int:
-        with torch.no_grad():
-            return int(self.online(torch.from_numpy(x)).argmax())
+        if self.pending and self.wait <= 0:
+            if model is None:
+                raise ValueError("DDQN-WN needs the planning model on a notified change")
+            self._fine_tune(model)
+            self.pending, self.wait = False, self.interval
+        self.wait -= 1
+        return self.learner.greedy(features(self.space, observation["state"]))
 
     def _fine_tune(self, model: Any) -> None:
         """Train in rounds from the current state; keep the best-scoring network."""
         start = model.get_state()
         scoring_seed = int(self.rng.integers(2**63))
-        kept = copy.deepcopy(self.online.state_dict())
+        learner = self.learner
+        kept = learner.params.copy()
         kept_returns, scored = np.zeros(2), 0
         if self.validate:
             kept_returns, scored = self._greedy_returns(model, start, scoring_seed)
-        self.target.load_state_dict(kept)
-        optimizer = torch.optim.Adam(
-            self.online.parameters(),
-            lr=self.args.learning_rate,
-            weight_decay=self.args.weight_decay,
-        )
+        learner.sync_target()
+        learner.reset_optimizer()  # a fresh Adam per fine-tuning
         transitions = self._transitions(model, start)
         made = updates = accepted = 0
         for k in range(self.checks):
@@ -224,23 +200,23 @@ class FineTunedDDQNAgent(Agent):
                     self.buffer.add(*next(transitions))
                 made += share
                 for _ in range(_share(self.gradient_steps, k, self.checks)):
-                    updates += self._update(optimizer)
+                    updates += self._update()
             else:
                 deadline = time.perf_counter() + self.time_budget / self.checks
                 while time.perf_counter() < deadline:
                     self.buffer.add(*next(transitions))
                     made += 1
                     if self.buffer.size >= self.args.batch_size:
-                        updates += self._update(optimizer)
+                        updates += self._update()
             if not self.validate:
-                kept, accepted = copy.deepcopy(self.online.state_dict()), k + 1
+                kept, accepted = learner.params.copy(), k + 1
                 continue
             returns, steps = self._greedy_returns(model, start, scoring_seed)
             scored += steps
             if improves(returns, kept_returns):
-                kept, kept_returns = copy.deepcopy(self.online.state_dict()), returns
+                kept, kept_returns = learner.params.copy(), returns
                 accepted = k + 1
-        self.online.load_state_dict(kept)
+        learner.params[:] = kept
         self.fine_tunings += 1
         self.last_fine_tuning = {
             "model_steps": made,
@@ -260,17 +236,16 @@ class FineTunedDDQNAgent(Agent):
             if self.rng.random() < self.epsilon:
                 action = int(self.rng.integers(num_actions))
             else:
-                action = self._greedy(x)
+                action = self.learner.greedy(x)
             next_state, reward, terminal = model.transition(state, action)
             yield x, action, float(reward), features(self.space, observe(next_state)), terminal
             state = start if terminal else next_state
 
-    def _update(self, optimizer: torch.optim.Optimizer) -> int:
+    def _update(self) -> int:
         """One Double-DQN step on a sampled batch (none while the buffer is empty)."""
         if not self.buffer.size:
             return 0
-        batch = self.buffer.sample(self.args.batch_size, self.rng)
-        gradient_step(self.online, self.target, optimizer, batch, self.args)
+        self.learner.gradient_step(self.buffer.sample(self.args.batch_size, self.rng))
         return 1
 
     def _greedy_returns(self, model: Any, start: Any, seed: int) -> tuple[np.ndarray, int]:
@@ -291,8 +266,7 @@ class FineTunedDDQNAgent(Agent):
             if not live:
                 break
             x = np.stack([features(self.space, observe(states[i])) for i in live])
-            with torch.no_grad():
-                actions = self.online(torch.from_numpy(x)).argmax(dim=1).tolist()
+            actions = self.learner.q(x).argmax(axis=1).tolist()
             still = []
             for i, action in zip(live, actions, strict=True):
                 states[i], reward, terminal = step(states[i], int(action), theta, rng)

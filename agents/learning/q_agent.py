@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Mapping
 from typing import Any
 
@@ -10,7 +11,7 @@ from gymnasium import spaces
 from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import NumpyMLP, features
-from ns_pz.agents.learning.trained import ddqn_needed, obtain, torch_module
+from ns_pz.agents.learning.trained import ddqn_needed, obtain
 
 from ns_pz.checks import count, flag, positive_number
 from ns_pz.views import NSGymEnv
@@ -137,7 +138,7 @@ def build_ddqn_wn(
     """
     args = DDQNArgs(**dict(ddqn or {})).for_family(env.family)
     weights = obtain(ddqn_needed(env, args))
-    module = torch_module("ddqn_wn")  # fine-tuning needs torch when acting
+    module = importlib.import_module("ns_pz.agents.learning.ddqn_wn")  # it imports this module
     return module.FineTunedDDQNAgent(
         weights,
         env.family.observation_space,

@@ -6,7 +6,7 @@ import numpy as np
 
 
 def training_seeds(seed: int) -> tuple[np.random.Generator, int, int]:
-    """Independent streams of one training seed: ``(generator, env seed, torch seed)``.
+    """Independent streams of one training seed: ``(generator, env seed, initialisation seed)``.
 
     Spawned from ``numpy.random.SeedSequence(seed)``, so the learner's own draws, the
     environment's episodes and the network initialisation never share a stream (seeding the

@@ -2,8 +2,8 @@
 
 An agent bound to an environment needs networks trained on that environment's θ_0
 (:class:`Needed`: the artefact request and how to train it). :func:`obtain` loads it from the
-cache, training it first (under the key's lock) if it is missing. Training imports torch
-(the ``learn`` extra); loading does not.
+cache, training it first (under the key's lock) if it is missing. Training AlphaZero's network
+imports torch (the ``learn`` extra); DDQN's trains in NumPy, and loading needs neither.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from ns_pz.views import NSGymEnv
 from ns_pz.workers import new_pool, stop_pool
 
 #: Bump a learner's number when its training changes what it produces.
-CODE_VERSIONS = {"ddqn": "2", "alphazero": "3"}
+CODE_VERSIONS = {"ddqn": "3", "alphazero": "3"}
 
 
 @dataclass(frozen=True)
@@ -59,7 +59,7 @@ class Needed:
     def train(
         self, progress: Callable[[int, int], bool] | None = None
     ) -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
-        """Train the network now (imports torch): ``(weights, info)``.
+        """Train the network now (AlphaZero's imports torch): ``(weights, info)``.
 
         Args:
             progress: Called with ``(done, total)`` in :attr:`work`'s unit as training goes;
@@ -67,7 +67,8 @@ class Needed:
         """
         env = training_env(self.env, self.args.max_episode_steps)
         if isinstance(self.args, DDQNArgs):
-            return torch_module("ddqn").train_ddqn(env, self.args, self.args.seed, progress)
+            ddqn = importlib.import_module("ns_pz.agents.learning.ddqn")
+            return ddqn.train_ddqn(env, self.args, self.args.seed, progress)
         return torch_module("alphazero").train_alphazero(env, self.args, self.args.seed, progress)
 
 

@@ -234,7 +234,8 @@ def _network(
         target.symlink_to(source.resolve(), target_is_directory=True)
         seconds = float(read_manifest(source).get("info", {}).get("seconds", 0.0))
         return TrainingCost(key, need.label, seconds, True, 0, total, unit, seconds)
-    torch_module("ddqn" if unit == "steps" else "alphazero")  # imported before the clock starts
+    if unit == "episodes":
+        torch_module("alphazero")  # torch is imported before the clock starts
     probe = _Probe(probe_seconds, getattr(need.args, "learning_starts", 0))
     bar = None
     if progress is not None:
