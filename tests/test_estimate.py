@@ -128,3 +128,23 @@ def test_training_time_on_an_idle_core_comes_from_cpu_time(monkeypatch) -> None:
     probe.step(10, 100)
     assert probe.cpu_share() == 0.5
     assert probe.projected(100) == 20.0  # 10 units in 2 s: 100 in 20 s, 10 s on an idle core
+
+
+def test_worker_start_up_is_counted_once_for_specs_run_one_after_the_other(
+    tmp_path: Path,
+) -> None:
+    """``bench run`` keeps its workers from one spec to the next: a second spec adds its work.
+
+    Two copies of one spec on one worker with a 30 s start-up: 30 s plus twice the trials'
+    work, not 60 s plus it.
+    """
+    from ns_pz.experiments.estimate import CellCost, projection_lines
+
+    first = load_spec(write_spec(tmp_path), "full")
+    (tmp_path / "other").mkdir()
+    other = tiny_spec(RANDOM, MCTS, full_episodes=6, name="other")
+    second = load_spec(write_spec(tmp_path / "other", other), "full")
+    cost = CellCost("s", "WN", "random", 1.0, 10, 1.0)
+    costs = {first.name: [cost], second.name: [cost]}
+    line = projection_lines([first, second], [], costs, workers=1, startup=30.0)[1]
+    assert "20 trials" in line and line.endswith("wall 50 s"), line

@@ -133,3 +133,18 @@ def _key_of(run: Path, agent: str) -> str:
         if row["agent"] == agent:
             return row["hyperparameters_key"]
     raise AssertionError(f"no row of {agent}")
+
+
+def test_a_packed_row_of_another_spec_is_refused_naming_the_trial(
+    finished: Path, tmp_path: Path
+) -> None:
+    """The message names the trial and the spec it belongs to, not a trial file packing removed."""
+    run = copy_of(finished, tmp_path)
+    lines = (run / "trials.jsonl").read_text().splitlines()
+    row = json.loads(lines[0])
+    row["spec_hash"] = "0123456789ab"
+    (run / "trials.jsonl").write_text("\n".join([json.dumps(row), *lines[1:]]) + "\n")
+    digest = json.loads(lines[1])["spec_hash"]
+    message = f"{run}: trial {row['trial']} belongs to spec 0123456789ab, not {digest}"
+    with pytest.raises(SpecError, match=message):
+        ResultStore(run).finished(digest)

@@ -443,8 +443,8 @@ def projection_lines(
     """The run's projected time on ``workers`` workers and on this machine, as text.
 
     Training and trials are given apart (:func:`~ns_pz.experiments.projection.project`). Specs
-    run one after the other, each with its own workers; a network several share is trained by
-    the first. On ``workers`` workers the trials take their CPU time (idle cores); on this
+    run one after the other on the same workers (``bench run`` starts them once, so only the
+    first spec waits for their start); a network several share is trained by the first. On ``workers`` workers the trials take their CPU time (idle cores); on this
     machine's cores, their wall time as measured (its present load).
 
     Args:
@@ -465,7 +465,7 @@ def projection_lines(
     for label, count, cpu in scenarios:
         to_train = {n.key: n.cpu_seconds if cpu else n.seconds for n in networks if not n.cached}
         parts = []
-        for spec in specs:
+        for index, spec in enumerate(specs):
             requires = plan_training(spec, expand(spec)).requires
             mine = {
                 key: to_train.pop(key)
@@ -481,6 +481,7 @@ def projection_lines(
                 )
                 for cost in costs.get(spec.name, ())
             ]
-            parts.append(project(list(mine.items()), groups, count, startup))
+            started = startup if index == 0 else 0.0  # the workers stay up between specs
+            parts.append(project(list(mine.items()), groups, count, started))
         lines.append(f"  {label}: {combined(parts).text()}")
     return lines

@@ -133,7 +133,7 @@ class ResultStore:
         for row in self.rows():
             if row["spec_hash"] != digest:
                 raise SpecError(
-                    f"{self.root}/trials/{row['trial']}.json belongs to spec {row['spec_hash']}, "
+                    f"{self.root}: trial {row['trial']} belongs to spec {row['spec_hash']}, "
                     f"not {digest}; use another --out directory"
                 )
             if row["status"] == "ok":
@@ -314,7 +314,8 @@ class ResultStore:
             writer = csv.DictWriter(handle, fieldnames=CSV_COLUMNS)
             writer.writeheader()
             for row in rows:
-                writer.writerow({column: self._stored(row).get(column) for column in CSV_COLUMNS})
+                stored = self._stored(row)
+                writer.writerow({column: stored.get(column) for column in CSV_COLUMNS})
         os.replace(handle.name, path)
         return path
 
