@@ -25,8 +25,9 @@ over the states (:class:`TabularEvaluation`, one batched forward pass). On a mod
 has a compiled step over state vectors and observes the state vector as float32 (CartPole) the
 network runs inside the kernel (:class:`VectorEvaluation`); so that both paths build the same
 tree, the Python path then evaluates the network with the kernel's own forward pass, not
-numpy's (whose matrix products round differently). On CartPole at the paper's full size (500
-simulations) a decision takes about 3 ms compiled against 100 ms in Python.
+numpy's (whose matrix products round differently). On CartPole at the specs' full size (500
+simulations) a decision takes about 3 ms compiled against 75-90 ms in Python
+(``benchmarks/bench_search.py``).
 """
 
 from __future__ import annotations
