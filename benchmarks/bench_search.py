@@ -7,18 +7,25 @@ Measured in one run on one machine:
   deterministic) and CartPole (m=300, d=500, γ=0.5); ns_pz compiled (numba), ns_pz reference
   (pure Python) and, with ``ns_gym`` importable, NS-Gym's ``MCTS`` on its planning env. Each
   figure is the median over repeated decisions from the start state;
+* one AlphaZero (PUCT) decision on CartPole at the full size of the ``cartpole-*`` specs
+  (500 simulations, depth 100, c=√2, γ=1, Q min-max scaled, no root noise) with a network of
+  the CartPole shape (trunk (128, 128)) and random weights (PyTorch's default initialisation,
+  seeded): compiled (the network inside the kernel), reference Python (whose forward pass is the
+  kernel's where numba is installed) and reference Python with numpy's forward pass (the
+  Python path as it was before the compiled one);
 * the model step in the rollout loop, in ns per step: compiled rollouts (uniform random actions,
   no tree) against the reference loop over ``model.transition``;
 * compile time: a fresh process's first compiled search with an empty numba cache, then again
   with the cache that run left (what every later process pays).
 
 Run: ``python benchmarks/bench_search.py`` (``--smoke`` for a seconds-long check that it runs;
-``--no-nsgym`` to skip NS-Gym even when installed).
+``--no-nsgym`` to skip NS-Gym even when installed; ``--envs CartPole`` for CartPole alone).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import statistics
 import subprocess
@@ -29,6 +36,8 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from ns_pz.agents.learning.config import AlphaZeroArgs
+from ns_pz.agents.learning.puct import PolicyValueFunction, model_evaluation, puct
 from ns_pz.agents.search.compiled import compile_model, kernels, numba_available
 from ns_pz.agents.search.mcts import uct
 
@@ -159,6 +168,74 @@ def measure_decisions(names: list[str], budget: float, repeats: int, nsgym: bool
         )
 
 
+def random_policy_value(space: Any, hidden: tuple[int, ...], num_actions: int) -> Any:
+    """A policy/value network with PyTorch's default initialisation (uniform ±1/√fan_in)."""
+    rng = np.random.default_rng(0)
+    sizes = [int(np.prod(space.shape)), *hidden]
+    weights: dict[str, np.ndarray] = {}
+
+    def layer(name: str, inputs: int, outputs: int) -> None:
+        bound = 1.0 / np.sqrt(inputs)
+        weights[f"{name}.weight"] = rng.uniform(-bound, bound, size=(outputs, inputs))
+        weights[f"{name}.bias"] = rng.uniform(-bound, bound, size=outputs)
+
+    for i in range(len(hidden)):
+        layer(f"trunk.{i}", sizes[i], sizes[i + 1])
+    layer("policy.0", hidden[-1], num_actions)
+    layer("value.0", hidden[-1], 1)
+    return PolicyValueFunction(weights, space)
+
+
+def alphazero_decision(
+    backend: str, budget: float, numpy_forward: bool = False
+) -> Callable[[int], object]:
+    """One PUCT decision on CartPole's start state at the specs' full size, seeded by ``i``.
+
+    ``numpy_forward``: evaluate with ``PolicyValueFunction.__call__`` (numpy) rather than
+    ``model_evaluation`` (the kernel's forward pass where numba is installed).
+    """
+    model = planning_model("CartPole")
+    family = model.family
+    args = AlphaZeroArgs().for_family(family)  # the paper's CartPole c, γ, trunk
+    iterations = max(2, int(500 * budget))
+    settings = dataclasses.replace(args.puct_settings(), iterations=iterations)
+    function = random_policy_value(family.observation_space, args.hidden or (), 2)
+    evaluate = model_evaluation(function, model)
+    if numpy_forward:
+        evaluate = lambda state: function(family.observe(state))  # noqa: E731
+    root = model.get_state()
+
+    def decide(i: int) -> object:
+        return puct(model, root, np.random.default_rng(i), evaluate, settings, backend)
+
+    return decide
+
+
+def measure_alphazero(budget: float, repeats: int) -> None:
+    """Print one AlphaZero decision's time on CartPole, compiled and reference."""
+    m = max(2, int(500 * budget))
+    print(f"\nOne AlphaZero (PUCT) decision on CartPole from the start state (median of {repeats})")
+    print(
+        f"  {'setting':30s} {'compiled':>10s} {'reference':>10s} {'ref. numpy net':>15s} "
+        f"{'ref./compiled':>14s}"
+    )
+    compiled = float("nan")
+    if numba_available():
+        decide = alphazero_decision("compiled", budget)
+        decide(0)  # compile or load the kernels outside the timing
+        compiled = time_decisions(decide, repeats)
+    decide = alphazero_decision("python", budget)
+    decide(0)  # the Python path's forward pass is compiled code too where numba is installed
+    reference = time_decisions(decide, max(1, repeats // 4))
+    numpy_net = time_decisions(alphazero_decision("python", budget, True), max(1, repeats // 4))
+    ratio = "-" if compiled != compiled else f"{reference / compiled:.0f}x"
+    label = f"CartPole m={m} d=100 c=√2 γ=1"
+    print(
+        f"  {label:30s} {_ms(compiled):>10s} {_ms(reference):>10s} {_ms(numpy_net):>15s} "
+        f"{ratio:>14s}"
+    )
+
+
 def measure_steps(names: list[str], steps: int) -> None:
     """Print ns per model step in the rollout loop, compiled and reference."""
     print(f"\nModel step in the rollout loop (uniform random actions, ~{steps} steps)")
@@ -256,6 +333,8 @@ def main() -> None:
     )
     budget, repeats, steps = (0.05, 2, 20_000) if args.smoke else (1.0, args.repeats, 2_000_000)
     measure_decisions(args.envs, budget, repeats, nsgym)
+    if "CartPole" in args.envs:
+        measure_alphazero(budget, repeats)
     measure_steps(args.envs, steps)
     if numba_available() and not args.smoke:
         measure_compile()

@@ -215,42 +215,151 @@ def test_compiled_puct_builds_the_python_tree(env_id, slip, noise, normalise_q):
             env.reset(seed=seed)
 
 
-def test_compiled_puct_refuses_continuous_models():
-    """CartPole has no tabulated network: backend='compiled' says why."""
+def _random_cartpole_function(seed=0, trunk=(8,), policy=(), value=()):
+    """A random policy/value network over CartPole's 4 floats (hidden head layers optional)."""
+    from ns_pz.agents.learning.puct import PolicyValueFunction
+
+    rng = np.random.default_rng(seed)
+    weights = {}
+    for prefix, sizes in (
+        ("trunk", (4, *trunk)),
+        ("policy", (trunk[-1], *policy, 2)),
+        ("value", (trunk[-1], *value, 1)),
+    ):
+        for i in range(len(sizes) - 1):
+            scale = 1.0 / np.sqrt(sizes[i])
+            weights[f"{prefix}.{i}.weight"] = rng.normal(size=(sizes[i + 1], sizes[i])) * scale
+            weights[f"{prefix}.{i}.bias"] = rng.normal(size=sizes[i + 1]) * 0.5
+    space = ns_pz.make_gym("ns_pz/CartPole-v0").family.observation_space
+    return PolicyValueFunction(weights, space)
+
+
+# a start state, and states near the edges, where simulations reach terminal states
+CARTPOLE_STATES = [None, (0.0, 0.3, 0.15, 0.4), (2.2, 0.8, -0.05, -0.2)]
+
+
+@pytest.mark.parametrize("normalise_q", [False, True])
+@pytest.mark.parametrize(("noise", "depth"), [(0.0, 100), (0.5, 3), (0.0, 0)])
+@pytest.mark.parametrize("state", CARTPOLE_STATES)
+def test_compiled_puct_on_cartpole_builds_the_python_tree(state, noise, depth, normalise_q):
+    """The network inside the kernel: compiled and Python PUCT agree on every root statistic.
+
+    Depth 3 binds (the simulations stop at existing nodes three levels down), depth 0 keeps
+    every simulation at the root's children.
+    """
+    import copy
+
     pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import VectorEvaluation, model_evaluation
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", params={"masspole": 0.5})
+    env.reset(seed=2)
+    function = _random_cartpole_function(1, trunk=(16, 16))
+    settings = PUCTSettings(
+        150, depth, 1.3, 0.97, dirichlet_alpha=0.5, noise=noise, normalise_q=normalise_q
+    )
+    model = env.planning_model()
+    root = model.get_state() if state is None else state
+    evaluate = model_evaluation(function, model)
+    assert isinstance(evaluate, VectorEvaluation)
+    for seed in range(3):
+        twin = copy.deepcopy(model)
+        python = puct_tree(model, root, np.random.default_rng(seed), evaluate, settings, "python")
+        compiled = puct_tree(
+            twin, root, np.random.default_rng(seed), evaluate, settings, "compiled"
+        )
+        np.testing.assert_array_equal(compiled.visits, python.visits)
+        np.testing.assert_array_equal(compiled.q, python.q)
+        np.testing.assert_array_equal(compiled.priors, python.priors)
+        assert (compiled.num_nodes, compiled.simulated_steps) == (
+            python.num_nodes,
+            python.simulated_steps,
+        )
+        assert python.num_nodes > (1 if depth == 0 else 10)
+
+
+def test_auto_searches_cartpole_compiled():
+    """backend='auto' takes the kernel for CartPole with a network: the same tree, faster."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning import puct as puct_module
     from ns_pz.agents.learning.puct import model_evaluation
 
     env = ns_pz.make_gym("ns_pz/CartPole-v0")
     env.reset(seed=0)
     model = env.planning_model()
+    evaluate = model_evaluation(_random_cartpole_function(), model)
+    assert puct_module._compiled(model, evaluate, "auto") is not None
+    assert puct_module._compiled(model, evaluate, "python") is None
+
+
+@pytest.mark.parametrize(
+    ("trunk", "policy", "value"), [((8,), (), ()), ((128, 128), (), ()), ((16, 8), (5,), (7, 3))]
+)
+def test_the_compiled_forward_pass_is_numpys(trunk, policy, value):
+    """The kernel's forward pass agrees with NumpyMLP's to rounding (1e-12 relative)."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.features import features
+    from ns_pz.agents.learning.puct import VectorEvaluation
+
+    function = _random_cartpole_function(3, trunk, policy, value)
+    space = function.space
+    evaluate = VectorEvaluation(function, lambda state: np.array(state, dtype=np.float32))
+    rng = np.random.default_rng(0)
+    for state in rng.normal(size=(20, 4)) * [1.0, 2.0, 0.2, 2.0]:
+        priors, v = evaluate(tuple(state))
+        expected_priors, expected_v = function(features(space, np.float32(state)))
+        np.testing.assert_allclose(priors, expected_priors, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(v, expected_v, rtol=1e-12, atol=1e-14)
+
+
+def test_compiled_puct_refuses_what_it_cannot_run():
+    """backend='compiled' names why: a plain function on CartPole, another observation."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import VectorEvaluation
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
     function = _random_cartpole_function()
-    with pytest.raises(ValueError, match="compiled PUCT needs a tabular model"):
+    settings = PUCTSettings(5, 5, 1.0, 1.0)
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="on CartPoleFamily needs a VectorEvaluation"):
+        puct_tree(model, model.get_state(), rng, function, settings, "compiled")
+    stranger = VectorEvaluation(function, lambda state: np.array(state, dtype=np.float32))
+    with pytest.raises(ValueError, match="other than CartPoleFamily.observe"):
+        puct_tree(model, model.get_state(), rng, stranger, settings, "compiled")
+    # "auto" falls back to the Python path for both
+    for fallback in (function, stranger):
+        tree = puct_tree(model, model.get_state(), rng, fallback, settings)
+        assert tree.visits.sum() == 5
+
+
+def test_compiled_puct_on_a_grid_needs_a_tabulated_network():
+    """A tabular model with a VectorEvaluation: backend='compiled' asks for the table."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import VectorEvaluation
+
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE)
+    env.reset(seed=0)
+    model = env.planning_model()
+    function = _random_function(env.family.observation_space, 0)
+    evaluate = VectorEvaluation(function, model.family.observe)
+    with pytest.raises(ValueError, match="on a tabular model needs a TabularEvaluation"):
         puct_tree(
-            model,
-            model.get_state(),
-            np.random.default_rng(0),
-            model_evaluation(function, model),
-            PUCTSettings(5, 5, 1.0, 1.0),
-            "compiled",
+            model, 0, np.random.default_rng(0), evaluate, PUCTSettings(5, 5, 1.0, 1.0), "compiled"
         )
 
 
-def _random_cartpole_function():
-    """A random policy/value network over CartPole's 4 floats."""
-    from ns_pz.agents.learning.puct import PolicyValueFunction
-
-    rng = np.random.default_rng(0)
-    weights = {
-        "trunk.0.weight": rng.normal(size=(8, 4)),
-        "trunk.0.bias": rng.normal(size=8),
-        "policy.0.weight": rng.normal(size=(2, 8)),
-        "policy.0.bias": rng.normal(size=2),
-        "value.0.weight": rng.normal(size=(1, 8)),
-        "value.0.bias": rng.normal(size=1),
-    }
-    return PolicyValueFunction(
-        weights, ns_pz.make_gym("ns_pz/CartPole-v0").family.observation_space
-    )
+def test_priors_of_the_wrong_length_are_refused():
+    """An evaluation with three priors for a model of two actions."""
+    with pytest.raises(ValueError, match="evaluate gave 3 priors for 2 actions"):
+        puct_tree(
+            ToyModel(),
+            0,
+            np.random.default_rng(0),
+            lambda state: (np.full(3, 1 / 3), 0.0),
+            PUCTSettings(5, 5, 1.0, 1.0),
+        )
 
 
 def test_normalise_q_must_be_a_bool():

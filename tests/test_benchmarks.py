@@ -32,7 +32,7 @@ def test_core_benchmark_smoke_run():
 
 
 def test_search_benchmark_smoke_run(tmp_path):
-    """bench_search.py --smoke times a decision and a model step for every setting."""
+    """bench_search.py --smoke times a decision and a model step per setting, and AlphaZero."""
     bench = BENCH.parent / "bench_search.py"
     out = subprocess.run(
         [sys.executable, str(bench), "--smoke"],
@@ -44,6 +44,7 @@ def test_search_benchmark_smoke_run(tmp_path):
     assert "One MCTS decision" in out and "Model step in the rollout loop" in out
     for setting in ("FrozenLake m=5 d=100", "CliffWalking m=50 d=200", "CartPole m=15 d=500"):
         assert setting in out
+    assert "One AlphaZero (PUCT) decision" in out and "CartPole m=25 d=100" in out
 
 
 def test_detector_benchmark_smoke_run():

@@ -18,11 +18,16 @@ with its settings bound), returning the same :class:`SearchResult`:
 * the action played is the most visited one; the self-play targets are the visit
   distribution at a temperature and the visit-weighted root Q.
 
-Two paths, as for UCT. On a tabular model the frozen network is first tabulated over the
-states (:class:`TabularEvaluation`, one batched forward pass), and with numba installed the
-search runs compiled (:mod:`ns_pz.agents.learning._puct_kernels`), building the same tree as
-the Python path for the same generators. Other models (CartPole) run the Python path: their
-states are continuous, so the network would have to run inside the kernel.
+Two paths, as for UCT; with numba installed the search runs compiled
+(:mod:`ns_pz.agents.learning._puct_kernels`) wherever it can, building the same tree as the
+Python path for the same generators. On a tabular model the frozen network is first tabulated
+over the states (:class:`TabularEvaluation`, one batched forward pass). On a model whose family
+has a compiled step over state vectors and observes the state vector as float32 (CartPole) the
+network runs inside the kernel (:class:`VectorEvaluation`); so that both paths build the same
+tree, the Python path then evaluates the network with the kernel's own forward pass, not
+numpy's (whose matrix products round differently). On CartPole at the specs' full size (500
+simulations) a decision takes about 3 ms compiled against 75-90 ms in Python
+(``benchmarks/bench_search.py``).
 """
 
 from __future__ import annotations
@@ -37,7 +42,13 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 from ns_pz.agents.learning.features import NumpyMLP, features
-from ns_pz.agents.search.compiled import CompiledModel, TabularData, compile_model
+from ns_pz.agents.search.compiled import (
+    CompiledModel,
+    TabularData,
+    compile_model,
+    kernels,
+    numba_available,
+)
 from ns_pz.agents.search.mcts import num_actions_of, uniform_index
 from ns_pz.agents.search.types import SearchResult
 
@@ -58,6 +69,7 @@ class PolicyValueFunction:
         self.policy = NumpyMLP(weights, "policy")
         self.value = NumpyMLP(weights, "value")
         self.space = observation_space
+        self._packed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def __call__(self, observation: Any) -> tuple[np.ndarray, float]:
         """Priors ``[num_actions]`` and the value of one base observation."""
@@ -70,6 +82,65 @@ class PolicyValueFunction:
         logits = self.policy(h)
         priors = np.exp(logits - logits.max(axis=1, keepdims=True))
         return priors / priors.sum(axis=1, keepdims=True), self.value(h)[:, 0]
+
+    def packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The layers as flat arrays for compiled code: ``(weights, layout, parts)``.
+
+        ``weights`` (float64) holds each layer's matrix ``[in, out]`` row-major, then its bias;
+        ``layout`` ``[num_layers, 4]`` (int64) is per layer ``(matrix offset, in, out, bias
+        offset)``, the trunk's layers first, then the policy head's, then the value head's;
+        ``parts`` ``[3]`` (int64) counts the layers of each. Built once, then shared.
+        """
+        if self._packed is None:
+            chunks: list[np.ndarray] = []
+            rows: list[tuple[int, int, int, int]] = []
+            at = 0
+            mlps = (self.trunk, self.policy, self.value)
+            for w, b in (layer for mlp in mlps for layer in mlp.layers):
+                rows.append((at, w.shape[0], w.shape[1], at + w.size))
+                chunks += [w.ravel(), b]
+                at += w.size + b.size
+            parts = np.array([len(mlp.layers) for mlp in mlps], dtype=np.int64)
+            layout = np.array(rows, dtype=np.int64)
+            self._packed = (np.concatenate(chunks).astype(np.float64), layout, parts)
+        return self._packed
+
+
+class VectorEvaluation:
+    """``evaluate(state)``: the network on the family's observation of a model state.
+
+    With numba installed the forward pass is compiled code
+    (:func:`ns_pz.agents.learning._puct_kernels.network`), the arithmetic of the compiled search,
+    so the Python and compiled searches build the same tree; without numba it is the function's
+    numpy forward pass (equal to about 1e-12, not bit for bit).
+
+    Args:
+        function: The network.
+        observe: ``observe(state) -> observation`` (the family's).
+    """
+
+    def __init__(self, function: PolicyValueFunction, observe: Callable[[Any], Any]) -> None:
+        self.function = function
+        self.observe = observe
+        self._network = _kernels().network if numba_available() else None
+
+    def __call__(self, state: Any) -> tuple[np.ndarray, float]:
+        """Priors ``[num_actions]`` and the value of ``state``.
+
+        Raises:
+            ValueError: The observation's features do not fit the network's input.
+        """
+        observation = self.observe(state)
+        if self._network is None:
+            return self.function(observation)
+        x = features(self.function.space, observation).astype(np.float64)
+        if x.shape != (self.function.trunk.input_size,):
+            raise ValueError(
+                f"the observation has {x.size} features; the network takes "
+                f"{self.function.trunk.input_size}"
+            )
+        priors, value = self._network(*self.function.packed(), x)
+        return priors, float(value)
 
 
 @dataclass(frozen=True)
@@ -186,29 +257,50 @@ def puct_tree(
         rng: The search generator (root noise, tie-breaks).
         evaluate: ``evaluate(state) -> (priors, value)``.
         settings: The hyper-parameters.
-        backend: ``"auto"`` (compiled for a tabular model with a :class:`TabularEvaluation`
-            when numba is installed), ``"compiled"`` (fail if not possible) or ``"python"``.
+        backend: ``"auto"`` (compiled where numba is installed and the model and evaluation
+            allow it: a tabular model with a :class:`TabularEvaluation`, or a model of a family
+            with a compiled vector step and a float32 observation, such as CartPole, with a
+            :class:`VectorEvaluation` of its family's observation), ``"compiled"`` (fail if not
+            possible) or ``"python"``.
 
     Raises:
-        ValueError: An unknown backend, or ``"compiled"`` where it is not possible.
+        ValueError: An unknown backend, ``"compiled"`` where it is not possible (the message
+            says why), or ``evaluate`` gives priors of another length than the action space.
     """
     compiled = _compiled(model, evaluate, backend)
     c, gamma, depth = settings.c, settings.gamma, settings.depth
     noise, dirichlet_alpha = settings.noise, settings.dirichlet_alpha
     num_actions = num_actions_of(model)
     priors, value = evaluate(root_state)
+    if len(priors) != num_actions:
+        raise ValueError(f"evaluate gave {len(priors)} priors for {num_actions} actions")
     if noise > 0.0:
         priors = (1.0 - noise) * priors + noise * rng.dirichlet(
             np.full(num_actions, dirichlet_alpha)
         )
+    if compiled is not None and isinstance(evaluate, VectorEvaluation):
+        visits, q, nodes, simulated = _kernels().puct_vector(
+            compiled.data,
+            np.ascontiguousarray(compiled.family.to_vector(root_state), dtype=np.float64),
+            np.asarray(priors, dtype=np.float64),
+            float(value),
+            *evaluate.function.packed(),
+            settings.iterations,
+            depth,
+            float(c),
+            float(gamma),
+            settings.normalise_q,
+            compiled.rng,
+            rng,
+        )
+        return PUCTTree(visits, q, value, int(nodes), int(simulated), priors)
     if compiled is not None:
-        assert isinstance(evaluate, TabularEvaluation)  # _compiled checked it
         visits, q, nodes, simulated = _kernels().puct_tabular(
             compiled.data,
             int(root_state),
             np.asarray(priors, dtype=np.float64),
-            evaluate.priors,
-            evaluate.values,
+            evaluate.priors,  # type: ignore[attr-defined]  # _compiled checked the type
+            evaluate.values,  # type: ignore[attr-defined]
             settings.iterations,
             depth,
             float(c),
@@ -279,29 +371,62 @@ def model_evaluation(function: PolicyValueFunction, model: Any) -> Evaluation:
     """``evaluate(state)`` for states of ``model``: the network on the family's observation.
 
     For a tabular model (an outcome table and a ``Discrete`` observation of the state index)
-    the network is tabulated over all states at once (:class:`TabularEvaluation`).
+    the network is tabulated over all states at once (:class:`TabularEvaluation`); for any other
+    it is a :class:`VectorEvaluation` of the family's ``observe``.
     """
     space = function.space
     if hasattr(model, "outcomes") and isinstance(space, spaces.Discrete) and space.start == 0:
         priors, values = function.batch(np.eye(int(space.n), dtype=np.float32))
         return TabularEvaluation(priors, values)
-    observe = model.family.observe
-    return lambda state: function(observe(state))
+    return VectorEvaluation(function, model.family.observe)
 
 
 def _compiled(model: Any, evaluate: Evaluation, backend: str) -> CompiledModel | None:
-    """The compiled tabular model to search, or None for the Python path."""
-    compiled = compile_model(model, backend)  # checks the backend's name
-    if compiled is not None and isinstance(compiled.data, TabularData):
-        if isinstance(evaluate, TabularEvaluation):
-            return compiled
+    """The compiled model to search (kernel by ``evaluate``'s type), or None for Python."""
+    compiled = compile_model(model, backend)  # checks the backend's name and numba
+    if compiled is None:
+        return None
+    reason = _not_compilable(compiled, model, evaluate)
+    if reason is None:
+        return compiled
     if backend == "compiled":
-        raise ValueError(
-            "backend='compiled' is not possible: compiled PUCT needs a tabular model and a "
-            "TabularEvaluation (model_evaluation gives one for tabular models)"
+        raise ValueError(f"backend='compiled' is not possible: {reason}")
+    return None
+
+
+def _not_compilable(compiled: CompiledModel, model: Any, evaluate: Evaluation) -> str | None:
+    """Why compiled PUCT cannot search ``model`` with ``evaluate``; None if it can."""
+    if isinstance(compiled.data, TabularData):
+        if isinstance(evaluate, TabularEvaluation):
+            return None
+        return (
+            "compiled PUCT on a tabular model needs a TabularEvaluation (model_evaluation gives "
+            f"one), not {type(evaluate).__name__}"
+        )
+    family = type(model.family).__name__
+    data_cls = type(compiled.data)
+    if not isinstance(evaluate, VectorEvaluation):
+        return (
+            f"compiled PUCT on {family} needs a VectorEvaluation of a network (model_evaluation "
+            f"gives one), not {type(evaluate).__name__}"
+        )
+    if not compiled.family.float32_observation:
+        return (
+            f"{family} is not registered with float32_observation=True, so its network input "
+            "cannot be computed inside the kernel"
+        )
+    if getattr(evaluate.observe, "__func__", None) is not type(model.family).observe:
+        return f"the VectorEvaluation observes with something other than {family}.observe"
+    if not isinstance(evaluate.function.space, spaces.Box):
+        return f"the network takes a {type(evaluate.function.space).__name__} observation"
+    if not data_cls.__module__.startswith("ns_pz."):
+        return (
+            f"{data_cls.__qualname__} is defined outside ns_pz (compiled PUCT, cached on disk, "
+            "serves the compiled steps of ns_pz's own families)"
         )
     return None
 
 
 def _kernels() -> ModuleType:
+    kernels()  # the compiled steps register first
     return importlib.import_module("ns_pz.agents.learning._puct_kernels")

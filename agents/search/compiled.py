@@ -83,11 +83,15 @@ class CompiledFamily:
         encode: ``encode(model) -> data``, the family's ``NamedTuple`` under the model's θ.
         to_vector: A family state as a ``float64`` vector.
         from_vector: The inverse of ``to_vector``.
+        float32_observation: Whether ``family.observe(state)`` is ``to_vector(state)`` rounded
+            to float32 (CartPole): then a network over observations can run inside a compiled
+            search (:func:`ns_pz.agents.learning.puct.puct_tree`).
     """
 
     encode: Callable[[Any], Any]
     to_vector: Callable[[Any], np.ndarray]
     from_vector: Callable[[np.ndarray], Any]
+    float32_observation: bool = False
 
 
 @dataclass(frozen=True)
@@ -115,6 +119,7 @@ def register_compiled_family(
     encode: Callable[[Any], Any],
     to_vector: Callable[[Any], np.ndarray],
     from_vector: Callable[[np.ndarray], Any],
+    float32_observation: bool = False,
 ) -> None:
     """Declare that models of ``family_cls`` (and its subclasses) can run compiled.
 
@@ -124,6 +129,8 @@ def register_compiled_family(
             registered with ``_kernels.register_step``).
         to_vector: A state as a ``float64`` vector.
         from_vector: A ``float64`` vector as a state.
+        float32_observation: The family's ``observe(state)`` is ``to_vector(state)`` rounded to
+            float32 (see :class:`CompiledFamily`).
 
     Raises:
         TypeError: ``family_cls`` is not a class or a converter is not callable.
@@ -133,7 +140,9 @@ def register_compiled_family(
     for name, fn in (("encode", encode), ("to_vector", to_vector), ("from_vector", from_vector)):
         if not callable(fn):
             raise TypeError(f"{name}={fn!r} must be callable")
-    _FAMILIES[family_cls] = CompiledFamily(encode, to_vector, from_vector)
+    _FAMILIES[family_cls] = CompiledFamily(
+        encode, to_vector, from_vector, bool(float32_observation)
+    )
 
 
 def numba_available() -> bool:
@@ -261,6 +270,7 @@ register_compiled_family(
     _cartpole_data,
     lambda s: np.array(s, dtype=np.float64),
     lambda v: tuple(float(x) for x in v),
+    float32_observation=True,
 )
 
 
