@@ -62,7 +62,7 @@ from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.ddqn import gradient_step
 from ns_pz.agents.learning.features import features
-from ns_pz.agents.learning.networks import mlp, one_thread
+from ns_pz.agents.learning.networks import LayerCalls, mlp, one_thread
 from ns_pz.agents.learning.q_agent import check_fine_tuning
 from ns_pz.agents.learning.replay import ReplayBuffer
 
@@ -165,6 +165,30 @@ class FineTunedDDQNAgent(Agent):
         self.last_fine_tuning: dict[str, Any] = {}
 
     @property
+    def online(self) -> torch.nn.Sequential:
+        """The network it acts on (setting it replaces the one the updates train too)."""
+        return self._online
+
+    @online.setter
+    def online(self, network: torch.nn.Sequential) -> None:
+        # The same forward passes without nn.Module's per-call dispatch, bit for bit (the
+        # dispatch costs more than these small networks' arithmetic): for updates, and detached
+        # for acting and scoring.
+        self._online = network
+        self._online_calls = LayerCalls(network)
+        self._acting = LayerCalls(network, detached=True)
+
+    @property
+    def target(self) -> torch.nn.Sequential:
+        """The Double-DQN target network of the updates."""
+        return self._target
+
+    @target.setter
+    def target(self, network: torch.nn.Sequential) -> None:
+        self._target = network
+        self._target_calls = LayerCalls(network)
+
+    @property
     def needs_model(self) -> bool:
         """The handed model is what it fine-tunes in."""
         return True
@@ -198,8 +222,7 @@ class FineTunedDDQNAgent(Agent):
             return self._greedy(features(self.space, observation["state"]))
 
     def _greedy(self, x: np.ndarray) -> int:
-        with torch.no_grad():
-            return int(self.online(torch.from_numpy(x)).argmax())
+        return int(self._acting(torch.from_numpy(x)).argmax())
 
     def _fine_tune(self, model: Any) -> None:
         """Train in rounds from the current state; keep the best-scoring network."""
@@ -255,22 +278,23 @@ class FineTunedDDQNAgent(Agent):
         observe = model.family.observe
         num_actions = int(model.action_space.n)
         state = start
+        start_x = x = features(self.space, observe(start))
         while True:
-            x = features(self.space, observe(state))
             if self.rng.random() < self.epsilon:
                 action = int(self.rng.integers(num_actions))
             else:
                 action = self._greedy(x)
             next_state, reward, terminal = model.transition(state, action)
-            yield x, action, float(reward), features(self.space, observe(next_state)), terminal
-            state = start if terminal else next_state
+            next_x = features(self.space, observe(next_state))
+            yield x, action, float(reward), next_x, terminal
+            state, x = (start, start_x) if terminal else (next_state, next_x)
 
     def _update(self, optimizer: torch.optim.Optimizer) -> int:
         """One Double-DQN step on a sampled batch (none while the buffer is empty)."""
         if not self.buffer.size:
             return 0
         batch = self.buffer.sample(self.args.batch_size, self.rng)
-        gradient_step(self.online, self.target, optimizer, batch, self.args)
+        gradient_step(self._online_calls, self._target_calls, optimizer, batch, self.args)
         return 1
 
     def _greedy_returns(self, model: Any, start: Any, seed: int) -> tuple[np.ndarray, int]:
@@ -291,8 +315,7 @@ class FineTunedDDQNAgent(Agent):
             if not live:
                 break
             x = np.stack([features(self.space, observe(states[i])) for i in live])
-            with torch.no_grad():
-                actions = self.online(torch.from_numpy(x)).argmax(dim=1).tolist()
+            actions = self._acting(torch.from_numpy(x)).argmax(dim=1).tolist()
             still = []
             for i, action in zip(live, actions, strict=True):
                 states[i], reward, terminal = step(states[i], int(action), theta, rng)
