@@ -21,6 +21,7 @@ from ns_pz.agents.learning.ddqn import (  # noqa: E402
     train_ddqn,
 )
 from ns_pz.agents.learning.ddqn_wn import network_from  # noqa: E402
+from ns_pz.agents.learning.networks import LayerCalls, mlp  # noqa: E402
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer  # noqa: E402
 from ns_pz.agents.learning.seeding import training_seeds  # noqa: E402
 from ns_pz.agents.learning.trained import training_env  # noqa: E402
@@ -195,3 +196,25 @@ def test_bad_args_are_refused(field, value, match):
     """Bad args are refused."""
     with pytest.raises((TypeError, ValueError), match=match):
         DDQNArgs(**{field: value})
+
+
+def test_layer_calls_compute_the_modules_bits_and_gradients():
+    """LayerCalls is the same forward pass as the module: equal outputs and equal gradients."""
+    torch.manual_seed(3)
+    network = mlp(4, (16, 8), 3)
+    calls, detached = LayerCalls(network), LayerCalls(network, detached=True)
+    x = torch.randn(32, 4)
+    assert torch.equal(calls(x), network(x)) and torch.equal(detached(x), network(x))
+    assert not detached(x).requires_grad
+    network(x).square().sum().backward()
+    expected = [p.grad.clone() for p in network.parameters()]
+    network.zero_grad()
+    calls(x).square().sum().backward()
+    assert all(torch.equal(p.grad, g) for p, g in zip(calls.parameters(), expected, strict=True))
+    with torch.no_grad():  # shared, not copied: an in-place update shows at once
+        network[0].weight.add_(1.0)
+    assert torch.equal(detached(x), network(x))
+    with pytest.raises(TypeError, match="must be Linear layers with a ReLU between each two"):
+        LayerCalls(
+            torch.nn.Sequential(torch.nn.Linear(4, 4), torch.nn.Tanh(), torch.nn.Linear(4, 2))
+        )
