@@ -3,11 +3,13 @@ r"""What whole trials cost, measured, against ``bench estimate``'s projection of
 For one spec, size, agent (by label) and cell (setting and notification column), each seed's
 trial is played exactly as the runner plays it (:func:`ns_pz.experiments.trials.run_trial`:
 ``spec.make_env``, the agent from the catalogue, ``run_episode``), and its episode length,
-CPU seconds and CPU seconds per step are printed, with the CPU seconds per step over the steps
-the estimate would time (those played within its cap, the first excluded) and over the rest.
-The last column is what ``bench estimate`` projects for the same trial
-(:func:`ns_pz.experiments.estimate._time_trial`, its cap ``--cap`` seconds, default 1):
-``<=`` marks a projection to the horizon (an upper bound), ``=`` an episode it timed whole.
+return, CPU seconds and CPU seconds per step are printed. Then what ``bench estimate``'s rule
+makes of this run's own step times, before this branch (cut at the cap ``--cap``, default 1 s;
+the time per step after the first projected to the horizon) and now (cut at the cap once 32
+steps are played, or at five caps; the time per step past the first quarter), with the steps
+each timed in brackets; ``<=`` marks a projection to the horizon (an upper bound), ``=`` an
+episode timed whole. The last column is the estimate's own timing of the same trial, played
+again (:func:`ns_pz.experiments.estimate._time_trial`).
 
 ``--max-steps N`` cuts a trial after N steps (the row says so) to keep a measurement bounded.
 ``--stand-in`` projects as the estimate does for an agent playing a stand-in network (every
@@ -97,14 +99,41 @@ def play(spec: ExperimentSpec, trial: Trial, max_steps: int | None) -> TrialCost
     )
 
 
-def rates(cost: TrialCost, cap: float) -> tuple[float, float]:
-    """CPU s/step over steps 2.. within ``cap`` wall seconds, and over the steps after them."""
-    within = int(np.searchsorted(cost.wall_ends, cap, side="left")) + 1
-    within = min(max(within, 2), cost.length)
-    early = (cost.ends[within - 1] - cost.ends[0]) / max(within - 1, 1)
-    rest = cost.length - within
-    late = (cost.ends[-1] - cost.ends[within - 1]) / rest if rest > 0 else float("nan")
-    return early, late
+def cut_at(cost: TrialCost, cap: float, min_steps: int, limit: float) -> int | None:
+    """Steps a capped timing of this run would have played (None: the episode ended first).
+
+    The cut falls after the first step that ends with ``cap`` wall seconds passed, two steps
+    played, and ``min_steps`` played or ``limit`` seconds passed.
+    """
+    for steps in range(2, cost.length + 1):
+        elapsed = cost.wall_ends[steps - 1]
+        if elapsed >= cap and (steps >= min_steps or elapsed >= limit):
+            return None if steps == cost.length and not cost.cut else steps
+    return None
+
+
+def projections(cost: TrialCost, cap: float, horizon: int) -> tuple[str, str]:
+    """CPU s the estimate's rule projects from this run's own step times: before, now.
+
+    Before: cut at the cap, projected at the time per step after the first. Now:
+    :data:`~ns_pz.experiments.estimate.MIN_STEPS` steps (up to
+    :data:`~ns_pz.experiments.estimate.OVERRUN` caps), projected past the first quarter
+    (:func:`~ns_pz.experiments.estimate.projected_time`). ``<=``: projected, ``=``: whole.
+    """
+    out = []
+    for min_steps, limit in ((2, cap), (estimate.MIN_STEPS, cap * estimate.OVERRUN)):
+        steps = cut_at(cost, cap, min_steps, limit)
+        if steps is None or steps >= horizon:
+            out.append(f"= {cost.cpu:.1f}")
+            continue
+        ends = [(w, c) for w, c in zip(cost.wall_ends[:steps], cost.ends[:steps], strict=True)]
+        if min_steps == 2:  # before: only the first step as warm-up
+            first, last = ends[0][1], ends[-1][1]
+            cpu = first + (last - first) * (horizon - 1) / (steps - 1)
+        else:
+            cpu = estimate.projected_time(ends, horizon)[1]
+        out.append(f"<= {cpu:.1f} ({steps})")
+    return out[0], out[1]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -135,10 +164,13 @@ def main(argv: list[str] | None = None) -> None:
         f"{spec.name} ({spec.size}, horizon {spec.horizon}) {args.agent} {args.setting} "
         f"{args.column}; CPU seconds; estimate cap {args.cap:g} s"
     )
-    print("seed  length  return   CPU s  CPU s/step  early s/step  late s/step  estimate CPU s")
+    print(
+        "seed  length  return   CPU s  CPU s/step   projected before   projected now"
+        "   estimate CPU s"
+    )
     for seed in args.seeds:
         cost = play(spec, trials[seed], args.max_steps)
-        early, late = rates(cost, args.cap)
+        before, now = projections(cost, args.cap, spec.horizon)
         projected: Any = "-"
         if not args.no_estimate:
             _, cpu, cut = estimate._time_trial(spec, trials[seed], args.cap, args.stand_in)
@@ -146,7 +178,7 @@ def main(argv: list[str] | None = None) -> None:
         length = f"{cost.length}{' cut' if cost.cut else ''}"
         print(
             f"{seed:4d}  {length:>6}  {cost.episode_return:6.0f}  {cost.cpu:6.1f}  "
-            f"{cost.cpu / cost.length:10.4f}  {early:12.4f}  {late:11.4f}  {projected:>14}",
+            f"{cost.cpu / cost.length:10.4f}  {before:>17}  {now:>14}  {projected:>15}",
             flush=True,
         )
 
