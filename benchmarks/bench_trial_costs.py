@@ -9,7 +9,9 @@ the time per step after the first projected to the horizon) and now (cut at the 
 steps are played, or at five caps; the time per step past the first quarter), with the steps
 each timed in brackets; ``<=`` marks a projection to the horizon (an upper bound), ``=`` an
 episode timed whole. The last column is the estimate's own timing of the same trial, played
-again (:func:`ns_pz.experiments.estimate._time_trial`).
+again (:func:`ns_pz.experiments.estimate._time_trial`). Torch's one-off set-up is paid before
+the first trial, as the estimate does (:func:`ns_pz.experiments.estimate.warm_torch`) and as a
+run's worker does once for all its trials.
 
 ``--max-steps N`` cuts a trial after N steps (the row says so) to keep a measurement bounded.
 ``--stand-in`` projects as the estimate does for an agent playing a stand-in network (every
@@ -160,6 +162,7 @@ def main(argv: list[str] | None = None) -> None:
     agent_entry(trials[args.seeds[0]].agent.name).make(  # train/load networks, untimed
         spec.make_env(trials[args.seeds[0]].cell), trials[args.seeds[0]].agent.hyper
     )
+    estimate.warm_torch()  # a worker pays torch's set-up once, for all its trials
     print(
         f"{spec.name} ({spec.size}, horizon {spec.horizon}) {args.agent} {args.setting} "
         f"{args.column}; CPU seconds; estimate cap {args.cap:g} s"
