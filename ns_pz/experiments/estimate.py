@@ -59,11 +59,12 @@ CELL_SECONDS = 1.0
 MIN_STEPS = 32
 """Steps an episode plays before the cap may cut it, unless :data:`OVERRUN` caps pass first.
 
-Measured on full-size DDQN-WN, CartPole continuous change, WD column (a 0.5-0.8 s fine-tuning
-every fourth step), three seeds: cut at one second (3 to 7 steps, the first fine-tuning paying
-torch's set-up) the time per step came out 1.4 to 10 times that of the whole episodes; from 23 to
-31 steps, past the first quarter, 0.9 to 1.4 times (the horizon, 2 500 steps against 253 to 429
-played, still makes the projection an upper bound).
+Measured on full-size DDQN-WN, CartPole continuous change, WN and WD columns (a 0.3-0.8 s
+fine-tuning every fourth step), on a 2-core machine shared with other jobs: cut at one second (3
+to 14 steps, the first fine-tuning paying torch's set-up when not paid before) the time per step
+came out 0.9 to 10 times that of the whole episodes; from 23 to 32 steps, past the first quarter,
+0.8 to 1.4 times. The horizon (2 500 steps against the 73 to 839 played) keeps the projection an
+upper bound all the same.
 """
 OVERRUN = 5.0
 """A group's timing stops at this many times its cap, whatever :data:`MIN_STEPS` asks."""
