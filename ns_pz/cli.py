@@ -342,7 +342,7 @@ def bench_list(args: argparse.Namespace, out: Callable[[str], None]) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
-    from ns_pz.experiments.estimate import CELL_SECONDS, PROBE_SECONDS
+    from ns_pz.experiments.estimate import CELL_SECONDS, MIN_STEPS, OVERRUN, PROBE_SECONDS
 
     parser = argparse.ArgumentParser(
         prog="ns-pz",
@@ -414,7 +414,8 @@ def _parser() -> argparse.ArgumentParser:
         type=float,
         default=CELL_SECONDS,
         help="cap on the seconds spent timing one agent in one cell; an episode cut at it is "
-        "projected to the horizon (default: %(default)s)",
+        f"projected to the horizon (it runs on to {MIN_STEPS} steps, up to {OVERRUN:g} times "
+        "the cap, so that a cost paid every few steps is averaged) (default: %(default)s)",
     )
     cost.add_argument(
         "--probe-seconds",

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -13,6 +14,7 @@ from ns_pz import cli
 from ns_pz.cli import main
 from ns_pz.experiments import load_spec
 from ns_pz.experiments.estimate import estimate, plan
+from ns_pz.experiments.trials import expand
 
 TINY = tiny_spec(RANDOM, MCTS, full_episodes=6)
 
@@ -53,11 +55,17 @@ def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
 
 
 def test_an_episode_over_the_cap_is_cut_and_projected_to_the_horizon(tmp_path: Path) -> None:
-    """A cell's timing stops at its cap; the time per step is projected to the horizon."""
-    experiment = load_spec(write_spec(tmp_path), "full")
+    """A cell's timing stops at its cap; the time per step is projected to the horizon.
+
+    5,000 iterations a step take several milliseconds, past the five caps of 1 ms after which an
+    episode is cut however few steps it played; the first step from FrozenLake's start never
+    ends the episode, so every MCTS episode is cut, on a quiet machine or a busy one.
+    """
+    slow = MCTS.replace("iterations = 200", "iterations = 5000")
+    experiment = load_spec(write_spec(tmp_path, tiny_spec(RANDOM, slow, full_episodes=6)), "full")
     costs = estimate(experiment, samples=2, cell_seconds=0.001)
     mcts = [c for c in costs if c.agent == "MCTS"]
-    assert mcts and all(c.at_horizon for c in mcts)  # 200 iterations a step: cut after one
+    assert mcts and all(c.at_horizon for c in mcts)
     whole = estimate(experiment, samples=1, cell_seconds=60.0)
     for cut, played in zip(costs, whole, strict=True):
         if cut.agent == "MCTS":  # the horizon bounds the played episode from above
@@ -69,8 +77,8 @@ def test_plan_says_what_it_will_do_and_how_long(tmp_path: Path) -> None:
     experiment = load_spec(write_spec(tmp_path), "full")
     what = plan([experiment], samples=2, cell_seconds=1.5, probe_seconds=4.0)
     assert (what.groups, what.networks, what.cached) == (8, 0, 0)
-    assert what.most_seconds == 8 * 1.5
-    assert "at most about 0.2 min" in what.text()
+    assert what.most_seconds == 8 * 1.5 * 5  # a group may run on to 5 times its cap
+    assert "at most about 1.0 min" in what.text()
     with pytest.raises(TypeError, match="samples=1.5 must be an integer >= 1"):
         plan([experiment], samples=1.5)  # type: ignore[arg-type]
 
@@ -148,3 +156,62 @@ def test_worker_start_up_is_counted_once_for_specs_run_one_after_the_other(
     costs = {first.name: [cost], second.name: [cost]}
     line = projection_lines([first, second], [], costs, workers=1, startup=30.0)[1]
     assert "20 trials" in line and line.endswith("wall 50 s"), line
+
+
+def _bursty_ends(steps: int) -> list[tuple[float, float]]:
+    """``(wall, CPU)`` step ends: a 2 s first step, 0.8 s every fourth (2.4 s the first time)."""
+    ends, clock = [], 0.0
+    for step in range(1, steps + 1):
+        cost = 0.01
+        if step == 1:
+            cost = 2.0  # building the agent, loading kernels
+        elif step % 4 == 3:
+            cost = 2.4 if step == 3 else 0.8  # a fine-tuning; the first pays torch's set-up
+        clock += cost
+        ends.append((clock, clock))
+    return ends
+
+
+def test_a_bursty_cost_is_projected_from_whole_bursts_past_the_one_off_ones() -> None:
+    """32 steps, past their first quarter, give the long-run rate; 6 steps overstate it."""
+    from ns_pz.experiments.estimate import MIN_STEPS, projected_time
+
+    horizon = 2500
+    whole = _bursty_ends(horizon)[-1][1]
+    wall, cpu = projected_time(_bursty_ends(MIN_STEPS), horizon)
+    assert wall == cpu and whole <= cpu <= 1.01 * whole
+    early = projected_time(_bursty_ends(6), horizon)[1]  # the cut at one second
+    assert early > 1.3 * whole
+    with pytest.raises(ValueError, match=r"len\(ends\)=1 must lie in \[2, horizon=2500\)"):
+        projected_time(_bursty_ends(1), horizon)
+
+
+@pytest.mark.parametrize(("step_seconds", "cut_at"), [(2**-10, 1024), (0.125, 32), (0.5, 10)])
+def test_the_cap_cuts_after_min_steps_or_at_its_limit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, step_seconds: float, cut_at: int
+) -> None:
+    """Past the 1 s cap an episode runs on to 32 steps, but never past 5 s."""
+    from ns_pz.agents.evaluation import Episode
+
+    from ns_pz.experiments import estimate as module
+
+    clock = {"now": 0.0}
+    monkeypatch.setattr(module.time, "perf_counter", lambda: clock["now"])
+    monkeypatch.setattr(module.time, "process_time", lambda: clock["now"])
+
+    def play(env: object, agent: object, seed: int, stop: Callable[[int], bool]) -> Episode:
+        steps = 0
+        while True:
+            clock["now"] += step_seconds
+            steps += 1
+            if stop(steps):
+                return Episode(seed, float(steps), steps, (), ())
+
+    monkeypatch.setattr(module, "run_episode", play)
+    experiment = load_spec(write_spec(tmp_path, tiny_spec(RANDOM, horizon=5000)), "quick")
+    trial = expand(experiment)[0]
+    wall, cpu, cut = module._time_trial(experiment, trial, 1.0, at_horizon=False)
+    assert cut and wall == cpu == pytest.approx(5000 * step_seconds)
+    costs = module._time_group(experiment, expand(experiment)[:2], 2, 1.0, at_horizon=False)
+    assert costs.at_horizon and costs.cpu_seconds_per_trial == pytest.approx(5000 * step_seconds)
+    assert round(clock["now"] / step_seconds) == 2 * cut_at  # _time_trial's, _time_group's

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from numbers import Integral, Real
 from typing import Any
@@ -44,6 +45,41 @@ from ns_pz.agents.search.types import SearchAgent, SearchResult
 FINALS = ("value", "visits")
 
 
+class NodeStates(Sequence[Any]):
+    """A compiled tree's node states, each converted from its kernel row only when read.
+
+    The agents read only the root's statistics; converting every node's row up front (CartPole:
+    a tuple of four floats for each of the 300 nodes of a paper-size decision) was a fifth of a
+    PA-MCTS decision. Equal to the tuple of the same states, as the reference tree holds them.
+
+    Args:
+        rows: ``[num_nodes, state_size]`` the kernel's state vectors (not copied; not to be
+            written afterwards).
+        from_vector: The family's conversion of one row to its state value.
+    """
+
+    def __init__(self, rows: np.ndarray, from_vector: Callable[[np.ndarray], Any]) -> None:
+        self._rows, self._from_vector = rows, from_vector
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, slice):
+            return tuple(self._from_vector(row) for row in self._rows[index])
+        return self._from_vector(self._rows[index])
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (tuple, NodeStates)):
+            return tuple(self) == tuple(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]  # equal to a tuple, so not hashable like one
+
+    def __repr__(self) -> str:
+        return f"NodeStates({len(self)} nodes)"
+
+
 @dataclass(frozen=True)
 class UCTTree:
     """The statistics of one UCT search; node 0 is the root, nodes in creation order.
@@ -51,7 +87,8 @@ class UCTTree:
     Attributes:
         parent: ``[num_nodes]`` index of each node's parent decision node (-1 for the root).
         parent_action: ``[num_nodes]`` the action leading to the node (-1 for the root).
-        states: The state of each node (the family's state values).
+        states: The state of each node (the family's state values; from the compiled path a
+            :class:`NodeStates`, converted when read).
         terminal: ``[num_nodes]`` whether the transition into the node ended the episode.
         node_visits: ``[num_nodes]`` N(n), backups through the node.
         visits: ``[num_nodes, num_actions]`` N(n, a).
@@ -61,7 +98,7 @@ class UCTTree:
 
     parent: np.ndarray
     parent_action: np.ndarray
-    states: tuple[Any, ...]
+    states: Sequence[Any]
     terminal: np.ndarray
     node_visits: np.ndarray
     visits: np.ndarray
@@ -229,7 +266,7 @@ def compiled_uct(
     return UCTTree(
         parent,
         parent_action,
-        tuple(family.from_vector(row) for row in states),
+        NodeStates(states, family.from_vector),
         terminal,
         node_visits,
         visits,

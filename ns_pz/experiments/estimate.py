@@ -13,7 +13,11 @@ Nothing is trained to the end and no trial need run to its end:
   ``cell_seconds``: an episode still going at the cap is cut, and its time per step projected
   to the spec's horizon (an upper bound: the episode may have ended sooner). Trials of an agent
   playing a stand-in network are projected to the horizon too (an untrained network ends a
-  CartPole episode early; a trained one balances to the limit).
+  CartPole episode early; a trained one balances to the limit). The cap cuts an episode only
+  once it has played :data:`MIN_STEPS` steps (or :data:`OVERRUN` times the cap has passed), and
+  the time per step is taken after its first quarter: a cost that comes in bursts (DDQN-WN
+  fine-tunes every fourth step on CartPole's continuous change) is averaged over many bursts,
+  not read off the one the cap fell in.
 
 :func:`plan` says beforehand what this will do and the most it can take.
 """
@@ -50,6 +54,17 @@ from ns_pz.experiments.work import plan_training
 
 CELL_SECONDS = 1.0
 """Default cap on the seconds spent timing one agent in one cell (all its sampled seeds)."""
+MIN_STEPS = 32
+"""Steps an episode plays before the cap may cut it, unless :data:`OVERRUN` caps pass first.
+
+Measured on full-size DDQN-WN, CartPole continuous change, WN and WD columns (a 0.3-0.8 s
+fine-tuning every fourth step, then in torch), on a 2-core machine shared with other jobs: cut at
+one second (3 to 14 steps) the time per step came out 0.9 to 10 times that of the whole
+episodes; from 23 to 32 steps, past the first quarter, 0.8 to 1.4 times. The horizon (2 500
+steps against the 73 to 839 played) keeps the projection an upper bound all the same.
+"""
+OVERRUN = 5.0
+"""A group's timing stops at this many times its cap, whatever :data:`MIN_STEPS` asks."""
 PROBE_SECONDS = 5.0
 """Default seconds of training timed per network the run would train."""
 
@@ -126,16 +141,21 @@ class Plan:
 
     @property
     def most_seconds(self) -> float:
-        """The longest the estimate should take (each cap can overrun by one step)."""
-        return self.groups * self.cell_seconds + self.networks * self.probe_seconds
+        """The longest the estimate should take (each group's limit can overrun by one step).
+
+        A group stops at its cap once its episode has played :data:`MIN_STEPS` steps, so only
+        groups with slow steps come near their limit, :data:`OVERRUN` times the cap.
+        """
+        return self.groups * self.cell_seconds * OVERRUN + self.networks * self.probe_seconds
 
     def text(self) -> str:
         """One paragraph for the user."""
         return (
             f"estimate: {self.networks} network(s) to train timed for {self.probe_seconds:g} s "
             f"each ({self.cached} cached), then {self.groups} agent x cell group(s), up to "
-            f"{self.samples} seed(s) each within {self.cell_seconds:g} s per group: at most "
-            f"about {self.most_seconds / 60:.1f} min (a cap overruns by at most one step)"
+            f"{self.samples} seed(s) each within {self.cell_seconds:g} s per group (up to "
+            f"{OVERRUN:g}x that until an episode has played {MIN_STEPS} steps): at most about "
+            f"{self.most_seconds / 60:.1f} min (a limit overruns by at most one step)"
         )
 
 
@@ -357,16 +377,20 @@ def estimate(
 def _time_group(
     spec: ExperimentSpec, trials: list[Trial], samples: int, cap: float, at_horizon: bool
 ) -> CellCost:
-    """Time up to ``samples`` of ``trials`` (one agent, one cell) within ``cap`` seconds."""
+    """Time up to ``samples`` of ``trials`` (one agent, one cell) within ``cap`` seconds.
+
+    A trial still going at ``cap`` runs on to :data:`MIN_STEPS` steps, or until the group has
+    spent :data:`OVERRUN` times ``cap``.
+    """
     times: list[float] = []
     cpu_times: list[float] = []
     projected = at_horizon
     start = time.perf_counter()
     for trial in trials[:samples]:
-        left = cap - (time.perf_counter() - start)
-        if times and left <= 0:
+        spent = time.perf_counter() - start
+        if times and spent >= cap:
             break
-        seconds, cpu, cut = _time_trial(spec, trial, left, at_horizon)
+        seconds, cpu, cut = _time_trial(spec, trial, cap - spent, at_horizon, cap * OVERRUN - spent)
         times.append(seconds)
         cpu_times.append(cpu)
         projected = projected or cut
@@ -385,28 +409,29 @@ def _time_group(
 
 
 def _time_trial(
-    spec: ExperimentSpec, trial: Trial, cap: float, at_horizon: bool
+    spec: ExperimentSpec, trial: Trial, cap: float, at_horizon: bool, limit: float | None = None
 ) -> tuple[float, float, bool]:
     """``(wall s, CPU s, cut)`` of one trial: as played, or projected to the horizon.
 
-    The episode is cut (``cut`` True) once ``cap`` seconds have passed and it has made two
-    steps; a cut episode, or any episode with ``at_horizon``, is projected to the horizon from
-    the time of its steps after the first (the first also pays one-off costs, such as loading
-    compiled search kernels, that the other steps do not repeat).
+    The episode is cut (``cut`` True) once ``cap`` seconds have passed and it has played
+    :data:`MIN_STEPS` steps, or once ``limit`` seconds have passed (default ``OVERRUN * cap``)
+    and it has played two. A cut episode, or any episode with ``at_horizon``, is projected to
+    the horizon by :func:`projected_time`.
     """
+    limit = cap * OVERRUN if limit is None else limit
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    first = (wall0, cpu0)  # when the first step ended
+    ends: list[tuple[float, float]] = []  # (wall, CPU) when each step ended
     cut = False
     try:
         env = spec.make_env(trial.cell)
         agent = agent_entry(trial.agent.name).make(env, trial.agent.hyper)
 
         def stop(steps: int) -> bool:
-            nonlocal cut, first
+            nonlocal cut
             now = time.perf_counter()
-            if steps == 1:
-                first = (now, time.process_time())
-            cut = steps >= 2 and now - wall0 >= cap
+            ends.append((now - wall0, time.process_time() - cpu0))
+            elapsed = now - wall0
+            cut = steps >= 2 and elapsed >= cap and (steps >= MIN_STEPS or elapsed >= limit)
             return cut
 
         episode = run_episode(env, agent, trial.seed, stop)
@@ -414,14 +439,38 @@ def _time_trial(
         raise
     except Exception as error:
         raise RuntimeError(f"trial {trial.key} failed: {error!r}") from error
-    wall2, cpu2 = time.perf_counter(), time.process_time()
+    wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     steps = episode.length
     if not (cut or at_horizon) or steps >= spec.horizon or steps < 2:
-        return wall2 - wall0, cpu2 - cpu0, cut
-    scale = (spec.horizon - 1) / (steps - 1)  # the steps after the first, to the horizon
-    wall = (first[0] - wall0) + (wall2 - first[0]) * scale
-    cpu = (first[1] - cpu0) + (cpu2 - first[1]) * scale
-    return wall, cpu, cut
+        return wall, cpu, cut
+    if len(ends) < steps:  # the episode's last step ended it before `stop` was asked
+        ends.append((wall, cpu))
+    return (*projected_time(ends, spec.horizon), cut)
+
+
+def projected_time(ends: Sequence[tuple[float, float]], horizon: int) -> tuple[float, float]:
+    """``(wall s, CPU s)`` of an episode of ``horizon`` steps, from its first steps' times.
+
+    The first quarter of the steps (at least the first step) counts as measured: it pays the
+    one-off costs later steps do not repeat (loading compiled search kernels, a first
+    fine-tuning's allocations). The rest of the horizon is projected at the time per step of
+    the steps after it.
+
+    Args:
+        ends: ``[(wall, CPU)]`` seconds from the trial's start to the end of each step played,
+            at least 2 steps and fewer than ``horizon``.
+        horizon: Steps to project to.
+
+    Raises:
+        ValueError: Fewer than 2 steps, or not fewer than ``horizon``.
+    """
+    steps = len(ends)
+    if not 2 <= steps < horizon:
+        raise ValueError(f"len(ends)={steps} must lie in [2, horizon={horizon})")
+    warm = max(1, steps // 4)
+    scale = (horizon - warm) / (steps - warm)
+    (wall_w, cpu_w), (wall_n, cpu_n) = ends[warm - 1], ends[-1]
+    return wall_w + (wall_n - wall_w) * scale, cpu_w + (cpu_n - cpu_w) * scale
 
 
 def worker_startup() -> float:
@@ -444,8 +493,9 @@ def projection_lines(
 
     Training and trials are given apart (:func:`~ns_pz.experiments.projection.project`). Specs
     run one after the other on the same workers (``bench run`` starts them once, so only the
-    first spec waits for their start); a network several share is trained by the first. On ``workers`` workers the trials take their CPU time (idle cores); on this
-    machine's cores, their wall time as measured (its present load).
+    first spec waits for their start); a network several share is trained by the first. On
+    ``workers`` workers the trials take their CPU time (idle cores); on this machine's cores,
+    their wall time as measured (its present load).
 
     Args:
         specs: The experiments, in the order they run.
