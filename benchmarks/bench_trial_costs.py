@@ -4,9 +4,10 @@ For one spec, size, agent (by label) and cell (setting and notification column),
 trial is played exactly as the runner plays it (:func:`ns_pz.experiments.trials.run_trial`:
 ``spec.make_env``, the agent from the catalogue, ``run_episode``), and its episode length,
 return, CPU seconds and CPU seconds per step are printed. Then what ``bench estimate``'s rule
-makes of this run's own step times, before this branch (cut at the cap ``--cap``, default 1 s;
-the time per step after the first projected to the horizon) and now (cut at the cap once 32
-steps are played, or at five caps; the time per step past the first quarter), with the steps
+makes of this run's own step times under its earlier rule ("before": cut at the cap ``--cap``,
+default 1 s; the time per step after the first projected to the horizon) and its present one
+("now": cut at the cap once 32 steps are played, or at five caps; the time per step past the
+first quarter), with the steps
 each timed in brackets; ``<=`` marks a projection to the horizon (an upper bound), ``=`` an
 episode timed whole. The last column is the estimate's own timing of the same trial, played
 again (:func:`ns_pz.experiments.estimate._time_trial`).
