@@ -22,21 +22,20 @@ import ast
 from typing import Any
 
 import numpy as np
-import torch
 from ns_pz.agents.catalog import agent_entry
 from ns_pz.agents.exact import policy_values, start_value, theta_trajectory
+from ns_pz.agents.learning.ddqn import DoubleDQN
 
 from ns_pz.experiments.spec import Cell, load_spec
 
 
-def greedy_policy(network: torch.nn.Module, num_states: int, horizon: int) -> np.ndarray:
+def greedy_policy(network: DoubleDQN, num_states: int, horizon: int) -> np.ndarray:
     """``[horizon, num_states]``: the network's greedy action in every state, at every step."""
-    with torch.no_grad():
-        actions = network(torch.eye(num_states)).argmax(dim=1).numpy()
+    actions = network.q(np.eye(num_states)).argmax(axis=1)
     return np.tile(actions, (horizon, 1))
 
 
-def exact_value(env: Any, network: torch.nn.Module, theta: Any, horizon: int) -> float:
+def exact_value(env: Any, network: DoubleDQN, theta: Any, horizon: int) -> float:
     """Expected return from the start state of the greedy policy under a constant θ."""
     n = int(env.family.observation_space.n)
     values = policy_values(env.family, [theta] * horizon, greedy_policy(network, n, horizon))
@@ -58,9 +57,9 @@ def one_row(spec: Any, index: int, seed: int, hyper: dict[str, Any], unchanged: 
     theta = thetas[0] if unchanged else thetas[-1]
     agent = agent_entry("ddqn_wn").make(env, hyper)
     agent.reset(np.random.default_rng(seed))
-    before = exact_value(env, agent.online, theta, spec.horizon)
+    before = exact_value(env, agent.learner, theta, spec.horizon)
     agent.act(*told_of_a_change(env, seed, theta))
-    after = exact_value(env, agent.online, theta, spec.horizon)
+    after = exact_value(env, agent.learner, theta, spec.horizon)
     return {"before": before, "after": after, **agent.last_fine_tuning}
 
 

@@ -114,7 +114,6 @@ def test_robust_benchmark_quick_run(tmp_path):
 
 def test_fine_tuning_benchmark_small_run(tmp_path):
     """bench_fine_tuning.py prints a before/after line per setting (a tiny network, one seed)."""
-    pytest.importorskip("torch")
     bench = BENCH.parent / "bench_fine_tuning.py"
     small = "{'ddqn': {'total_steps': 600, 'learning_starts': 100}, 'model_steps': 20}"
     out = subprocess.run(
