@@ -23,7 +23,12 @@ import math
 
 import numba
 import numpy as np
-from ns_pz.agents.search._kernels import _uniform_index, family_step, tabular_step
+from ns_pz.agents.search._kernels import (
+    _find_child,
+    _uniform_index,
+    family_step,
+    tabular_step,
+)
 
 
 @numba.njit(cache=True)
@@ -47,6 +52,22 @@ def _select(q, priors, n, visits, c, lo, hi, normalise, rng, scores, ties):  # t
     if count == 1:
         return ties[0]
     return ties[_uniform_index(rng, count)]
+
+
+@numba.njit(cache=True, inline="always")
+def _backup(path_nodes, path_actions, path_rewards, length, leaf, gamma, n, visits, w, q, lo, hi):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """Back ``leaf`` up the path (``G <- r + γ G``); ``(lo, hi)`` widened by the new Q values."""
+    for i in range(length - 1, -1, -1):
+        m = path_nodes[i]
+        a = path_actions[i]
+        leaf = path_rewards[i] + gamma * leaf
+        visits[m, a] += 1
+        w[m, a] += leaf
+        q[m, a] = w[m, a] / visits[m, a]
+        n[m] += 1
+        lo = min(lo, q[m, a])
+        hi = max(hi, q[m, a])
+    return lo, hi
 
 
 @numba.njit(cache=True)
@@ -149,17 +170,9 @@ def puct_tabular(  # type: ignore[no-untyped-def]  # pragma: no cover
                 leaf = value[node]
                 break
             level += 1
-        for i in range(length - 1, -1, -1):
-            m = path_nodes[i]
-            a = path_actions[i]
-            leaf = path_rewards[i] + gamma * leaf
-            visits[m, a] += 1
-            w[m, a] += leaf
-            q[m, a] = w[m, a] / visits[m, a]
-            n[m] += 1
-            if normalise:
-                lo = min(lo, q[m, a])
-                hi = max(hi, q[m, a])
+        lo, hi = _backup(
+            path_nodes, path_actions, path_rewards, length, leaf, gamma, n, visits, w, q, lo, hi
+        )
     return visits[0].copy(), q[0].copy(), num_nodes, simulated
 
 
@@ -324,18 +337,7 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
             path_actions[length] = action
             path_rewards[length] = reward
             length += 1
-            child = first_child[node, action]
-            last = -1
-            while child >= 0:
-                same = True
-                for j in range(dim):
-                    if states[child, j] != sampled[j]:
-                        same = False
-                        break
-                if same:
-                    break
-                last = child
-                child = next_sibling[child]
+            child, last = _find_child(first_child, next_sibling, states, node, action, sampled)
             if child < 0:
                 child = num_nodes
                 num_nodes += 1
@@ -360,15 +362,7 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
                 leaf = value[node]
                 break
             level += 1
-        for i in range(length - 1, -1, -1):
-            m = path_nodes[i]
-            a = path_actions[i]
-            leaf = path_rewards[i] + gamma * leaf
-            visits[m, a] += 1
-            w[m, a] += leaf
-            q[m, a] = w[m, a] / visits[m, a]
-            n[m] += 1
-            if normalise:
-                lo = min(lo, q[m, a])
-                hi = max(hi, q[m, a])
+        lo, hi = _backup(
+            path_nodes, path_actions, path_rewards, length, leaf, gamma, n, visits, w, q, lo, hi
+        )
     return visits[0].copy(), q[0].copy(), num_nodes, simulated

@@ -278,37 +278,21 @@ def puct_tree(
         priors = (1.0 - noise) * priors + noise * rng.dirichlet(
             np.full(num_actions, dirichlet_alpha)
         )
-    if compiled is not None and isinstance(evaluate, VectorEvaluation):
-        visits, q, nodes, simulated = _kernels().puct_vector(
-            compiled.data,
-            np.ascontiguousarray(compiled.family.to_vector(root_state), dtype=np.float64),
-            np.asarray(priors, dtype=np.float64),
-            float(value),
-            *evaluate.function.packed(),
-            settings.iterations,
-            depth,
-            float(c),
-            float(gamma),
-            settings.normalise_q,
-            compiled.rng,
-            rng,
-        )
-        return PUCTTree(visits, q, value, int(nodes), int(simulated), priors)
     if compiled is not None:
-        visits, q, nodes, simulated = _kernels().puct_tabular(
-            compiled.data,
-            int(root_state),
-            np.asarray(priors, dtype=np.float64),
-            evaluate.priors,  # type: ignore[attr-defined]  # _compiled checked the type
-            evaluate.values,  # type: ignore[attr-defined]
-            settings.iterations,
-            depth,
-            float(c),
-            float(gamma),
-            settings.normalise_q,
-            compiled.rng,
-            rng,
-        )
+        search = (settings.iterations, depth, float(c), float(gamma), settings.normalise_q)
+        generators = (compiled.rng, rng)
+        root_priors = np.asarray(priors, dtype=np.float64)
+        if isinstance(evaluate, VectorEvaluation):
+            root = np.ascontiguousarray(compiled.family.to_vector(root_state), dtype=np.float64)
+            network = (root_priors, float(value), *evaluate.function.packed())
+            visits, q, nodes, simulated = _kernels().puct_vector(
+                compiled.data, root, *network, *search, *generators
+            )
+        else:
+            table = (evaluate.priors, evaluate.values)  # type: ignore[attr-defined]  # checked
+            visits, q, nodes, simulated = _kernels().puct_tabular(
+                compiled.data, int(root_state), root_priors, *table, *search, *generators
+            )
         return PUCTTree(visits, q, value, int(nodes), int(simulated), priors)
     root = _Node(root_state, False, priors, value, num_actions)
     bounds = [np.inf, -np.inf] if settings.normalise_q else None

@@ -315,6 +315,29 @@ def _select_action(q, visits, node_visits, num_actions, c, rng, ties):  # type: 
     return ties[_uniform_index(rng, count)]
 
 
+@numba.njit(cache=CACHE, inline="always")
+def _find_child(first_child, next_sibling, states, node, action, sampled):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """``(child, last)``: the child of ``(node, action)`` whose state vector equals ``sampled``.
+
+    Children of a chance node form a linked list from ``first_child[node, action]`` through
+    ``next_sibling``; ``child`` is -1 when none matches, and ``last`` is then the list's last
+    node (-1 for an empty list), which a new child is linked after.
+    """
+    child = first_child[node, action]
+    last = -1
+    while child >= 0:
+        same = True
+        for j in range(sampled.shape[0]):
+            if states[child, j] != sampled[j]:
+                same = False
+                break
+        if same:
+            break
+        last = child
+        child = next_sibling[child]
+    return child, last
+
+
 @numba.njit(cache=CACHE)
 def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """UCT as ``ns_pz.agents.search.mcts.reference_uct``, over arrays.
@@ -360,18 +383,7 @@ def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_
             path_actions[length] = action
             path_rewards[length] = reward
             length += 1
-            child = first_child[node, action]
-            last = -1
-            while child >= 0:
-                same = True
-                for j in range(dim):
-                    if states[child, j] != sampled[j]:
-                        same = False
-                        break
-                if same:
-                    break
-                last = child
-                child = next_sibling[child]
+            child, last = _find_child(first_child, next_sibling, states, node, action, sampled)
             new = child < 0
             if new:
                 child = num_nodes
