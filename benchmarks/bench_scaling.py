@@ -47,15 +47,18 @@ def run_once(
     argv = [sys.executable, "-m", "ns_pz.cli", "bench", "run", spec, "--size", size]
     argv += ["--workers", str(workers), "--out", str(out), *extra]
     log = log or out / "stderr.log"
+    log.parent.mkdir(parents=True, exist_ok=True)
     load = os.getloadavg()[0]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    with open(log, "w") as stream:
-        done = subprocess.run(argv, env=env, stdout=subprocess.DEVNULL, stderr=stream)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    text = log.read_text()
-    shutil.rmtree(out, ignore_errors=True)
+    try:
+        with open(log, "w") as stream:
+            done = subprocess.run(argv, env=env, stdout=subprocess.DEVNULL, stderr=stream)
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        text = log.read_text()
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
     if done.returncode not in (0, 1):
         raise RuntimeError(f"{' '.join(argv)} failed:\n{text[-3000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)

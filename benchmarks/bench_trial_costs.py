@@ -113,8 +113,14 @@ def cut_at(cost: TrialCost, cap: float, min_steps: int, limit: float) -> int | N
     return None
 
 
-def projections(cost: TrialCost, cap: float, horizon: int) -> tuple[str, str]:
+def projections(
+    cost: TrialCost, cap: float, horizon: int, stand_in: bool = False
+) -> tuple[str, str]:
     """CPU s the estimate's rule projects from this run's own step times: before, now.
+
+    An episode the rule would not cut is projected all the same from every step it played when
+    ``--max-steps`` truncated it or ``stand_in`` is set (the estimate projects a stand-in
+    network's every episode to the horizon).
 
     Before: cut at the cap, projected at the time per step after the first. Now:
     :data:`~ns_pz.experiments.estimate.MIN_STEPS` steps (up to
@@ -124,6 +130,8 @@ def projections(cost: TrialCost, cap: float, horizon: int) -> tuple[str, str]:
     out = []
     for min_steps, limit in ((2, cap), (estimate.MIN_STEPS, cap * estimate.OVERRUN)):
         steps = cut_at(cost, cap, min_steps, limit)
+        if steps is None and (cost.cut or stand_in) and cost.length >= 2:
+            steps = cost.length
         if steps is None or steps >= horizon:
             out.append(f"= {cost.cpu:.1f}")
             continue
@@ -171,7 +179,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     for seed in args.seeds:
         cost = play(spec, trials[seed], args.max_steps)
-        before, now = projections(cost, args.cap, spec.horizon)
+        before, now = projections(cost, args.cap, spec.horizon, args.stand_in)
         projected: Any = "-"
         if not args.no_estimate:
             _, cpu, cut = estimate._time_trial(spec, trials[seed], args.cap, args.stand_in)

@@ -7,12 +7,55 @@ work (a trial, a network's training) to finish, and a worker whose parent was ki
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
+import multiprocessing.context
 import os
 import threading
 import time
+from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
+
+#: The thread-pool sizes numerical libraries read once, when they load: OpenBLAS under NumPy,
+#: OpenMP under torch, MKL. A worker is one of many on the machine, so it gets one thread each.
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+@contextlib.contextmanager
+def single_threaded_children() -> Iterator[None]:
+    """Processes started in the block load their numerical libraries with one thread each.
+
+    The variables are set in this process's environment only while the block runs (a child
+    copies it when it starts); one the user set already is left as it is.
+    """
+    added = [name for name in THREAD_VARIABLES if name not in os.environ]
+    for name in added:
+        os.environ[name] = "1"
+    try:
+        yield
+    finally:
+        for name in added:
+            os.environ.pop(name, None)
+
+
+class _SingleThreadedProcess(multiprocessing.context.SpawnProcess):
+    def start(self) -> None:
+        with single_threaded_children():
+            super().start()
+
+
+class _SingleThreadedSpawn(multiprocessing.context.SpawnContext):
+    Process = _SingleThreadedProcess
+
+
+def worker_context() -> multiprocessing.context.SpawnContext:
+    """The spawn context workers start from, each with one thread per numerical library.
+
+    A variable set inside the worker would come too late for NumPy: spawn imports the parent's
+    main module, and with it NumPy, before the worker's own code runs.
+    """
+    return _SingleThreadedSpawn()
 
 
 def new_pool(workers: int, started: Any = None) -> ProcessPoolExecutor:
@@ -28,7 +71,7 @@ def new_pool(workers: int, started: Any = None) -> ProcessPoolExecutor:
     """
     return ProcessPoolExecutor(
         workers,
-        mp_context=multiprocessing.get_context("spawn"),
+        mp_context=worker_context(),
         initializer=_start_worker,
         initargs=(os.getpid(), started),
     )

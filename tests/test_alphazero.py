@@ -572,3 +572,18 @@ def test_training_keeps_the_best_evaluated_network(_tmp_cache):
     episodes = [episode for episode, _ in info["evaluations"]]
     assert episodes == [2, 4, 6]
     assert info["kept_evaluation"] == max(score for _, score in info["evaluations"])
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [
+        ("iterations", 0, "iterations=0 must be an int >= 1"),
+        ("depth", -1, "depth=-1 must be an int >= 0"),
+        ("depth", 2.5, "depth=2.5 must be an int >= 0"),
+    ],
+)
+def test_puct_settings_refuse_counts_the_kernels_cannot_size(field, value, match):
+    """A negative depth would size the compiled search's path arrays below what it writes."""
+    settings = {"iterations": 10, "depth": 5, "c": 1.0, "gamma": 0.9, field: value}
+    with pytest.raises(ValueError, match=match):
+        PUCTSettings(**settings)

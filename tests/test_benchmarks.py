@@ -126,3 +126,20 @@ def test_fine_tuning_benchmark_small_run(tmp_path):
     for label in ("unchanged", "p=0.4", "p=0.6", "p=0.8"):
         assert f"\n{label}" in out
     assert out.count(" before ") == 4 and "replaced" in out
+
+
+def test_trial_costs_benchmark_projects_a_truncated_trial(tmp_path):
+    """bench_trial_costs.py times a trial cut by --max-steps and projects it (not "= whole")."""
+    bench = BENCH.parent / "bench_trial_costs.py"
+    argv = [sys.executable, str(bench), "cartpole-single", "--size", "quick", "--agent", "MCTS"]
+    argv += ["--setting", "masspole=1", "--seeds", "0", "--max-steps", "20", "--no-estimate"]
+    out = subprocess.run(
+        argv,
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "NS_PZ_CACHE_DIR": str(tmp_path)},
+    ).stdout
+    row = out.strip().splitlines()[-1].split()
+    assert row[:3] == ["0", "20", "cut"]
+    assert row.count("<=") == 2 and row[-1] == "-"

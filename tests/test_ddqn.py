@@ -74,7 +74,7 @@ def _tiny_batch():
     return buffer.sample(2, np.random.default_rng(0)), buffer
 
 
-def test_td_loss_is_the_double_dqn_loss_on_a_hand_computed_batch():
+def test_the_loss_is_the_double_dqn_loss_on_a_hand_computed_batch():
     """Online picks the next action (1, value 6), the target net values it (2): y = 1 + 0.5 * 2.
 
     Q_online(0, 1) = 0, so the non-terminal transition's squared error is (0 - 2)^2 = 4; the

@@ -292,3 +292,32 @@ def test_a_job_in_a_worker_may_start_processes_of_its_own() -> None:
         assert [(o.job, o.died, o.result) for o in outcomes] == [("job", False, 0)]
     finally:
         pool.close(clean=True)
+
+
+@pytest.mark.parametrize("user_setting", [None, "3"])
+def test_workers_start_with_one_thread_per_numerical_library(
+    monkeypatch: pytest.MonkeyPatch, user_setting: str | None
+) -> None:
+    """NumPy's OpenBLAS reads its thread count when it loads, before a worker's code runs.
+
+    So the variables must be in the environment the worker starts with; a user's own setting is
+    kept, and this process's environment is as it was afterwards.
+    """
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    from ns_pz.workers import THREAD_VARIABLES, worker_context
+
+    for name in THREAD_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    if user_setting is not None:
+        monkeypatch.setenv("OPENBLAS_NUM_THREADS", user_setting)
+    with ProcessPoolExecutor(1, mp_context=worker_context()) as pool:
+        seen = {name: pool.submit(os.getenv, name).result() for name in THREAD_VARIABLES}
+    assert seen == {
+        "OMP_NUM_THREADS": "1",
+        "OPENBLAS_NUM_THREADS": user_setting or "1",
+        "MKL_NUM_THREADS": "1",
+    }
+    assert os.environ.get("OPENBLAS_NUM_THREADS") == user_setting
+    assert "OMP_NUM_THREADS" not in os.environ

@@ -538,3 +538,29 @@ def test_a_new_family_plugs_into_the_compiled_kernels(tmp_path):
         "print(uct(m, 0, np.random.default_rng(0), iterations=5, backend='compiled').action)"
     )
     subprocess.run([sys.executable, "-c", code], check=True, cwd=tmp_path, capture_output=True)
+
+
+def test_a_compiled_tree_pickles_with_its_states_as_a_tuple():
+    """Lazily converted node states pickle as the tuple they equal.
+
+    CartPole's converter is a lambda, which pickle cannot name.
+    """
+    import pickle
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    backend = "compiled" if numba_available() else "python"
+    tree = uct_tree(
+        model,
+        model.get_state(),
+        np.random.default_rng(0),
+        iterations=20,
+        depth=10,
+        c=1.0,
+        gamma=0.9,
+        backend=backend,
+    )
+    again = pickle.loads(pickle.dumps(tree))
+    assert isinstance(again.states, tuple) and again.states == tree.states
+    np.testing.assert_array_equal(again.visits, tree.visits)

@@ -52,6 +52,8 @@ from ns_pz.agents.search.compiled import (
 from ns_pz.agents.search.mcts import num_actions_of, uniform_index
 from ns_pz.agents.search.types import SearchResult
 
+from ns_pz.checks import count
+
 Evaluation = Callable[[Any], tuple[np.ndarray, float]]
 """``evaluate(state) -> (priors [num_actions] summing to 1, value)`` of a model state."""
 
@@ -239,6 +241,15 @@ class PUCTSettings:
     dirichlet_alpha: float = 1.0
     noise: float = 0.0
     normalise_q: bool = False
+
+    def __post_init__(self) -> None:
+        """Refuse counts the kernels would size their arrays from wrongly.
+
+        Raises:
+            ValueError: ``iterations`` below 1 or ``depth`` below 0 (or not integers).
+        """
+        count("iterations", self.iterations, 1)
+        count("depth", self.depth, 0)
 
 
 def puct_tree(

@@ -102,7 +102,7 @@ def torch_module(name: str) -> Any:
     Raises:
         MissingExtra: torch is not installed (an ``ImportError`` naming the ``learn`` extra).
     """
-    require("torch", f"the learning agents' {name} (training or fine-tuning a network)")
+    require("torch", f"the learning agents' {name} (training its network)")
     return importlib.import_module(f"ns_pz.agents.learning.{name}")
 
 

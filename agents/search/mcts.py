@@ -79,6 +79,10 @@ class NodeStates(Sequence[Any]):
     def __repr__(self) -> str:
         return f"NodeStates({len(self)} nodes)"
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled as the tuple it equals (a family's converter may be a lambda)."""
+        return (tuple, (tuple(self),))
+
 
 @dataclass(frozen=True)
 class UCTTree:

@@ -17,14 +17,14 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
-from ns_pz.workers import die_with_parent
+from ns_pz.workers import die_with_parent, worker_context
 
 
 class Worker:
     """One worker process: what it runs now and what it has run (its warm labels)."""
 
     def __init__(self, index: int) -> None:
-        context = multiprocessing.get_context("spawn")
+        context = worker_context()
         self.index = index
         self.conn, child = context.Pipe(duplex=True)
         self.process = context.Process(target=_serve, args=(child, os.getpid()), daemon=True)
@@ -46,9 +46,6 @@ def _serve(conn: Connection, parent: int) -> None:
     # The parent starts workers as daemons (ended at its exit); in here the flag would forbid
     # a trial's own processes (an SB3 SubprocVecEnv, a pool of its own), so it is cleared.
     multiprocessing.current_process().daemon = False
-    # One thread for torch (read when it is imported; a user's own setting is kept): the other
-    # cores run the other workers.
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     conn.send(None)
     while True:
         try:

@@ -30,6 +30,7 @@ from ns_pz.agents.learning.artefacts import (
     read_manifest,
     save,
 )
+from ns_pz.agents.learning.config import AlphaZeroArgs
 from ns_pz.agents.learning.trained import Needed
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.spec import ExperimentSpec
@@ -108,7 +109,8 @@ def train_network(need: Needed, shown: bool = False) -> Trained:
     """
     start = time.perf_counter()
     try:
-        _one_thread()
+        if isinstance(need.args, AlphaZeroArgs):  # it trains in torch; DDQN in NumPy
+            _one_thread()
         train = need.train
         if shown:
             train = _drawn(need)
@@ -156,7 +158,7 @@ def run_batch(spec: ExperimentSpec, trials: Sequence[Trial]) -> list[dict[str, A
 
 
 def _one_thread_if_loaded() -> None:
-    """Agents that fine-tune a network use torch while they act: keep it to one thread too."""
+    """An agent that uses torch while it acts (one of the user's) keeps to one thread too."""
     torch = sys.modules.get("torch")
     if torch is not None and torch.get_num_threads() != 1:
         torch.set_num_threads(1)
