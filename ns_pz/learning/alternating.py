@@ -257,12 +257,7 @@ def rarl(
             agent_env = _phase_env(
                 _AgentSide(env_id, met_now, env_kwargs), n_envs, seed + _PHASE_SEEDS * index
             )
-            agent_model.set_env(agent_env)
-        try:
-            agent_model.learn(agent_args.total_timesteps, reset_num_timesteps=False)
-        finally:
-            if subproc:
-                agent_env.close()
+        _learn(agent_model, agent_args.total_timesteps, agent_env if subproc else None)
         agent_seconds = time.perf_counter() - started
         # The nature the agent has just met joins the pool before it learns on: the agent's
         # next round meets it beside its successor (the current nature).
@@ -278,12 +273,7 @@ def rarl(
             nature_env = _phase_env(
                 factory, n_envs, seed + _PHASE_SEEDS * index + _PHASE_SEEDS // 2
             )
-            nature_model.set_env(nature_env)
-        try:
-            nature_model.learn(nature_args.total_timesteps, reset_num_timesteps=False)
-        finally:
-            if subproc:
-                nature_env.close()
+        _learn(nature_model, nature_args.total_timesteps, nature_env if subproc else None)
         nature_seconds = time.perf_counter() - started
         returns = {
             label: _returns(_AgentSide(env_id, nature, env_kwargs)(), agent_model, eval_seeds)
@@ -342,6 +332,20 @@ def _frozen(policy: Any) -> Any:
     frozen.load_state_dict(policy.state_dict())
     frozen.set_training_mode(False)
     return frozen
+
+
+def _learn(model: Any, steps: int, phase_env: Any | None) -> None:
+    """``model`` learns on for ``steps`` steps; in ``phase_env`` (set, then closed) if given.
+
+    A phase's subprocess envs are closed when learning ends, also when it raises.
+    """
+    if phase_env is not None:
+        model.set_env(phase_env)
+    try:
+        model.learn(steps, reset_num_timesteps=False)
+    finally:
+        if phase_env is not None:
+            phase_env.close()
 
 
 def _phase_env(factory: Any, n_envs: int, seed: int) -> Any:
