@@ -110,21 +110,81 @@ def test_root_noise_comes_from_the_search_generator():
     np.testing.assert_array_equal(first.visits, again.visits)
 
 
-torch = pytest.importorskip("torch")
-from ns_pz.agents.learning.alphazero import alphazero_loss  # noqa: E402
+def _policy_value_learner(dead_unit: bool, dtype=np.float64):
+    """A learner on 5 features, trunk (8, 6), 3 actions; optionally a unit no input activates."""
+    from ns_pz.agents.learning.alphazero import PolicyValueLearner
+
+    args = AlphaZeroArgs(learning_rate=1e-2, weight_decay=1e-3)
+    learner = PolicyValueLearner(5, (8, 6), 3, args, np.random.default_rng(0), dtype)
+    if dead_unit:  # unit 2 of the second trunk layer: inputs >= 0 and a large negative bias
+        w, b = learner.mlp.layers[1]
+        w[:, 2], b[2] = np.abs(w[:, 2]) * -1.0, -100.0
+    return learner
 
 
-def test_loss_is_cross_entropy_on_logits_plus_value_mse():
-    """D loss / d logits = softmax(logits) - π per row (/ batch): no double softmax."""
-    logits = torch.tensor([[2.0, 0.0, -1.0], [0.5, 0.5, 3.0]], requires_grad=True)
-    values = torch.tensor([0.5, -1.0], requires_grad=True)
-    pi = torch.tensor([[0.2, 0.5, 0.3], [1.0, 0.0, 0.0]])
-    z = torch.tensor([1.0, 1.0])
-    loss = alphazero_loss(logits, values, pi, z)
-    expected = ((0.5**2 + 2.0**2) / 2) - (pi * torch.log_softmax(logits, 1)).sum(1).mean()
-    torch.testing.assert_close(loss, expected)
-    loss.backward()
-    torch.testing.assert_close(logits.grad, (torch.softmax(logits.detach(), 1) - pi) / 2)
+def _batch(rng, size=7):
+    x = np.abs(rng.normal(size=(size, 5)))
+    pi = rng.dirichlet(np.ones(3), size=size)
+    return x, pi, rng.normal(size=size)
+
+
+@pytest.mark.parametrize("dead_unit", [False, True])
+def test_policy_value_steps_match_torch_autograd_and_adam(dead_unit):
+    """Loss, gradient and three Adam steps (weight decay on) equal torch's in float64.
+
+    Torch's side is the textbook network: a ``Linear``/ReLU trunk, ReLU on its output, a policy
+    and a value ``Linear`` head, ``MSE(v, z) + CE(π, log_softmax(logits))`` (the cross-entropy
+    on the logits, not on softmax outputs as NS-Gym), ``backward`` and ``torch.optim.Adam``.
+    With ``dead_unit`` one trunk unit is off for the whole batch, the path that leaves its
+    weights out of the backward product.
+    """
+    torch = pytest.importorskip("torch")
+    learner = _policy_value_learner(dead_unit)
+    exported = learner.export()
+    tensors = {
+        k: torch.tensor(v, dtype=torch.float64, requires_grad=True) for k, v in exported.items()
+    }
+    names = sorted(tensors)
+    optimizer = torch.optim.Adam([tensors[k] for k in names], lr=1e-2, weight_decay=1e-3)
+    x, pi, z = _batch(np.random.default_rng(1))
+    xt, pit, zt = (torch.from_numpy(a) for a in (x, pi, z))
+
+    def torch_loss():
+        h = xt
+        for i in range(2):
+            h = torch.relu(h @ tensors[f"trunk.{i}.weight"].T + tensors[f"trunk.{i}.bias"])
+        logits = h @ tensors["policy.0.weight"].T + tensors["policy.0.bias"]
+        values = (h @ tensors["value.0.weight"].T + tensors["value.0.bias"]).squeeze(1)
+        cross_entropy = -(pit * torch.log_softmax(logits, dim=1)).sum(dim=1).mean()
+        return torch.nn.functional.mse_loss(values, zt) + cross_entropy
+
+    for _ in range(3):
+        loss = torch_loss()
+        optimizer.zero_grad()
+        loss.backward()
+        assert learner.gradient_step(x, pi, z) == pytest.approx(loss.item(), rel=1e-12)
+        optimizer.step()
+        for name, value in learner.export().items():
+            expected = tensors[name].detach().numpy()
+            np.testing.assert_allclose(value, expected, rtol=1e-9, atol=1e-14, err_msg=name)
+    if dead_unit:  # no gradient reached the dead unit's incoming weights but weight decay's
+        assert learner.export()["trunk.1.bias"][2] < -99.0
+
+
+def test_a_float32_learner_flushes_subnormals_to_zero():
+    """Subnormal weights (weight decay's endpoint for unused inputs) become 0 after a step.
+
+    Left in, they make every product they enter tens of times slower; torch keeps them.
+    """
+    learner = _policy_value_learner(False, np.float32)
+    learner.mlp.params[:5] = np.float32(1e-40)
+    x, pi, z = _batch(np.random.default_rng(1))
+    learner.gradient_step(x.astype(np.float32), pi, z)
+    tiny = np.finfo(np.float32).tiny
+    for state in (learner.mlp.params, learner.mlp.m, learner.mlp.v):
+        assert state.dtype == np.float32
+        assert not np.any((state != 0) & (np.abs(state) < tiny))
+    assert learner.export()["trunk.0.weight"].dtype == np.float32
 
 
 @pytest.fixture

@@ -50,15 +50,24 @@ def test_a_mixed_matrix_game_without_scipy_names_the_game_extra(
     assert solve_matrix_games(saddle).values[0] == 1.0
 
 
-def test_training_without_torch_names_the_learn_extra_and_the_cpu_wheel(
-    hide: Callable[[str], None],
+def test_the_paper_agents_train_without_torch(
+    hide: Callable[[str], None], tmp_path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """Training says to install the learn extra, and where the CPU-only torch wheel is."""
-    from ns_pz.agents.learning.trained import torch_module
+    """DDQN and AlphaZero train in NumPy: with torch unimportable both networks still train."""
+    from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
+    from ns_pz.agents.learning.trained import alphazero_needed, ddqn_needed, obtain
 
+    import ns_pz
+
+    monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path))
     hide("torch")
-    with pytest.raises(MissingExtra, match=r'needs torch.*"ns_pz\[learn\]".*whl/cpu'):
-        torch_module("ddqn")
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": [0.7, 0.15, 0.15]})
+    needs = [
+        ddqn_needed(env, DDQNArgs(total_steps=600, learning_starts=100)),
+        alphazero_needed(env, AlphaZeroArgs(episodes=2, iterations=4, max_episode_steps=10)),
+    ]
+    for need in needs:
+        assert all(np.all(np.isfinite(w)) for w in obtain(need).values())
 
 
 def test_sb3_vec_without_stable_baselines3_names_the_learn_extra(

@@ -2,8 +2,8 @@
 
 An agent bound to an environment needs networks trained on that environment's θ_0
 (:class:`Needed`: the artefact request and how to train it). :func:`obtain` loads it from the
-cache, training it first (under the key's lock) if it is missing. Training AlphaZero's network
-imports torch (the ``learn`` extra); DDQN's trains in NumPy, and loading needs neither.
+cache, training it first (under the key's lock) if it is missing. Both learners train in NumPy
+(:mod:`.mlp`), so neither training nor loading needs torch.
 """
 
 from __future__ import annotations
@@ -23,12 +23,11 @@ from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
 from ns_pz.agents.learning.features import feature_size
 
 from ns_pz import __version__
-from ns_pz.extras import require
 from ns_pz.views import NSGymEnv
 from ns_pz.workers import new_pool, stop_pool
 
 #: Bump a learner's number when its training changes what it produces.
-CODE_VERSIONS = {"ddqn": "3", "alphazero": "4"}
+CODE_VERSIONS = {"ddqn": "3", "alphazero": "5"}
 
 
 @dataclass(frozen=True)
@@ -59,7 +58,7 @@ class Needed:
     def train(
         self, progress: Callable[[int, int], bool] | None = None
     ) -> tuple[Mapping[str, np.ndarray], Mapping[str, Any]]:
-        """Train the network now (AlphaZero's imports torch): ``(weights, info)``.
+        """Train the network now (in NumPy): ``(weights, info)``.
 
         Args:
             progress: Called with ``(done, total)`` in :attr:`work`'s unit as training goes;
@@ -69,7 +68,8 @@ class Needed:
         if isinstance(self.args, DDQNArgs):
             ddqn = importlib.import_module("ns_pz.agents.learning.ddqn")
             return ddqn.train_ddqn(env, self.args, self.args.seed, progress)
-        return torch_module("alphazero").train_alphazero(env, self.args, self.args.seed, progress)
+        alphazero = importlib.import_module("ns_pz.agents.learning.alphazero")
+        return alphazero.train_alphazero(env, self.args, self.args.seed, progress)
 
 
 def training_env(env: NSGymEnv, max_episode_steps: int) -> NSGymEnv:
@@ -94,16 +94,6 @@ def _request(learner: str, env: NSGymEnv, args: Any) -> ArtefactRequest:
         seed=args.seed,
         code_version=f"{__version__}/{learner}-{CODE_VERSIONS[learner]}",
     )
-
-
-def torch_module(name: str) -> Any:
-    """``ns_pz.agents.learning.<name>``, a module that imports torch.
-
-    Raises:
-        MissingExtra: torch is not installed (an ``ImportError`` naming the ``learn`` extra).
-    """
-    require("torch", f"the learning agents' {name} (training its network)")
-    return importlib.import_module(f"ns_pz.agents.learning.{name}")
 
 
 def ddqn_needed(env: NSGymEnv, args: DDQNArgs) -> Needed:

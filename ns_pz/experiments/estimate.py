@@ -46,7 +46,7 @@ from ns_pz.agents.learning.artefacts import (
     read_manifest,
     save,
 )
-from ns_pz.agents.learning.trained import Needed, torch_module
+from ns_pz.agents.learning.trained import Needed
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.projection import GroupTime, combined, project
 from ns_pz.experiments.runner import needed_networks
@@ -256,8 +256,6 @@ def _network(
         target.symlink_to(source.resolve(), target_is_directory=True)
         seconds = float(read_manifest(source).get("info", {}).get("seconds", 0.0))
         return TrainingCost(key, need.label, seconds, True, 0, total, unit, seconds)
-    if unit == "episodes":
-        torch_module("alphazero")  # torch is imported before the clock starts
     probe = _Probe(probe_seconds, getattr(need.args, "learning_starts", 0))
     bar = None
     if progress is not None:

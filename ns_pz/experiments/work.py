@@ -30,7 +30,6 @@ from ns_pz.agents.learning.artefacts import (
     read_manifest,
     save,
 )
-from ns_pz.agents.learning.config import AlphaZeroArgs
 from ns_pz.agents.learning.trained import Needed
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.spec import ExperimentSpec
@@ -102,15 +101,13 @@ class Trained:
 
 
 def train_network(need: Needed, shown: bool = False) -> Trained:
-    """Train ``need`` here, on one thread, unless it is cached; never raises.
+    """Train ``need`` here (NumPy, one thread), unless it is cached; never raises.
 
     Runs in a worker process. ``shown``: draw plain progress lines on this process's stderr.
     The key's file lock makes concurrent runs sharing the cache train it once.
     """
     start = time.perf_counter()
     try:
-        if isinstance(need.args, AlphaZeroArgs):  # it trains in torch; DDQN in NumPy
-            _one_thread()
         train = need.train
         if shown:
             train = _drawn(need)
@@ -121,15 +118,6 @@ def train_network(need: Needed, shown: bool = False) -> Trained:
         message = "".join(traceback.format_exception_only(error)).strip()
         return Trained(need.request.key, need.label, time.perf_counter() - start, False, message)
     return Trained(need.request.key, need.label, time.perf_counter() - start, trained)
-
-
-def _one_thread() -> None:
-    """Limit torch to one thread: the other cores run other workers."""
-    try:
-        import torch
-    except ImportError:  # training then says which extra to install
-        return
-    torch.set_num_threads(1)
 
 
 def _drawn(need: Needed) -> Callable[[], Any]:
