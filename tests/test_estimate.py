@@ -138,6 +138,27 @@ def test_training_time_on_an_idle_core_comes_from_cpu_time(monkeypatch) -> None:
     assert probe.projected(100) == 20.0  # 10 units in 2 s: 100 in 20 s, 10 s on an idle core
 
 
+def test_training_that_slows_down_is_projected_at_its_later_rate(monkeypatch) -> None:
+    """AlphaZero's episodes cost more as its data grows: the rest goes at the later half's rate.
+
+    Past the warm-up (reached at 2 s), 1 unit a second for 4 s, then 1 unit every 2 s for 4 s:
+    the later half (6 s to 10 s) did 2 units in 4 s, so the 92 units left take 184 s more (the
+    average since the warm-up, 6 units in 8 s, would say 123).
+    """
+    from ns_pz.experiments import estimate as module
+
+    clock = {"wall": 0.0}
+    monkeypatch.setattr(module.time, "perf_counter", lambda: clock["wall"])
+    monkeypatch.setattr(module.time, "process_time", lambda: clock["wall"])
+    probe = module._Probe(10.0, warm_up=1)
+    stops = []
+    for wall, done in [(1, 1), (2, 2), (3, 3), (4, 4), (5, 5), (6, 6), (8, 7), (10, 8)]:
+        clock["wall"] = float(wall)
+        stops.append(probe.step(done, 100))
+    assert stops == [False] * 7 + [True]
+    assert probe.projected(100) == pytest.approx(10.0 + 184.0)
+
+
 def test_worker_start_up_is_counted_once_for_specs_run_one_after_the_other(
     tmp_path: Path,
 ) -> None:

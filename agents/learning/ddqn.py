@@ -13,10 +13,10 @@ bootstraps through it). The loss is the MSE of the spec, optimised by Adam with 
 **NumPy, not torch.** The networks are MLPs of one to three layers of 64–128 units trained on
 batches of 64, where torch's cost per call (autograd, module dispatch, the optimiser's
 per-tensor loop: about 1 ms per gradient step on one core) dwarfs the arithmetic.
-:class:`DoubleDQN` keeps every parameter of a network in one flat float64 vector (the layers are
-views of it), so Adam and the Polyak update are a handful of vector operations, and writes the
-backward pass of the ReLU MLP out by hand (tested against torch's autograd and ``Adam``). The
-same learner fine-tunes DDQN-WN's network when notified, so neither needs torch. Initial
+:class:`DoubleDQN` is a float64 :class:`~ns_pz.agents.learning.mlp.MLPLearner` (one flat vector
+of parameters, the ReLU MLP's backward pass written out, Adam) with a target network beside it,
+so the Polyak update is two vector operations (tested against torch's autograd and ``Adam``).
+The same learner fine-tunes DDQN-WN's network when notified, so neither needs torch. Initial
 weights follow torch's ``nn.Linear`` default, uniform in ``±1/sqrt(fan_in)``, drawn from their
 own stream of the training seed.
 """
@@ -31,13 +31,11 @@ from typing import Any
 import numpy as np
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import feature_size, features
+from ns_pz.agents.learning.mlp import MLPLearner, forward, layer_views
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer
 from ns_pz.agents.learning.seeding import training_seeds
 
 from ns_pz.views import NSGymEnv
-
-ADAM_BETAS = (0.9, 0.999)
-ADAM_EPS = 1e-8
 
 
 def dqn_target(
@@ -76,16 +74,15 @@ def double_dqn_target(
     return rewards + gamma * (1.0 - terminated) * evaluated
 
 
-class DoubleDQN:
+class DoubleDQN(MLPLearner):
     """An online Q-network, its target network and Adam's state, as flat float64 vectors.
 
-    Layer ``i`` computes ``h @ W_i + b_i`` with ReLU between layers (``W_i`` is ``[in, out]``,
-    the transpose of torch's ``Linear.weight``); ``params``, ``target`` and Adam's moments are
-    vectors of all weights and biases, layer by layer, and the layers are views into them.
+    The online network is the :class:`MLPLearner` itself (``params``, ``layers``, Adam's
+    moments); ``target`` is a second flat vector of the same layout, ``target_layers`` its views.
 
     Args:
         widths: ``inputs, hidden..., outputs``.
-        params: The online network's flat parameters (copied).
+        params: The online network's flat parameters (copied); the target starts as a copy.
         args: Learning rate, weight decay, γ, τ.
 
     Raises:
@@ -93,34 +90,15 @@ class DoubleDQN:
     """
 
     def __init__(self, widths: Sequence[int], params: np.ndarray, args: DDQNArgs) -> None:
-        widths = [int(w) for w in widths]
-        if len(widths) < 2 or min(widths) < 1:
-            raise ValueError(f"widths={widths!r} must list at least two widths, each >= 1")
-        self.widths = widths
-        self.size = sum(a * b + b for a, b in zip(widths[:-1], widths[1:], strict=True))
-        params = np.asarray(params, dtype=np.float64)
-        if params.shape != (self.size,):
-            raise ValueError(
-                f"params has shape {params.shape}; widths {widths} need ({self.size},)"
-            )
+        super().__init__(widths, params, args.learning_rate, args.weight_decay)
         self.args = args
-        self.params = params.copy()
-        self.target = params.copy()
-        self.grad = np.zeros(self.size)
-        self.layers = self._views(self.params)
-        self.target_layers = self._views(self.target)
-        self.grad_layers = self._views(self.grad)
-        self.reset_optimizer()
+        self.target = self.params.copy()
+        self.target_layers = layer_views(self.target, self.widths)
 
     @classmethod
     def initial(cls, widths: Sequence[int], args: DDQNArgs, rng: np.random.Generator) -> DoubleDQN:
         """A fresh network (torch's ``Linear`` default: uniform in ``±1/sqrt(fan_in)``)."""
-        parts = []
-        for fan_in, fan_out in zip(widths[:-1], widths[1:], strict=True):
-            bound = 1.0 / np.sqrt(fan_in)
-            parts.append(rng.uniform(-bound, bound, fan_in * fan_out))
-            parts.append(rng.uniform(-bound, bound, fan_out))
-        return cls(widths, np.concatenate(parts), args)
+        return cls(widths, MLPLearner.initial_params(widths, rng), args)
 
     @classmethod
     def from_weights(
@@ -146,94 +124,51 @@ class DoubleDQN:
             parts += [weight.T.reshape(-1), bias]
         return cls(widths, np.concatenate(parts), args)
 
-    def _views(self, flat: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        views, at = [], 0
-        for a, b in zip(self.widths[:-1], self.widths[1:], strict=True):
-            views.append((flat[at : at + a * b].reshape(a, b), flat[at + a * b : at + a * b + b]))
-            at += a * b + b
-        return views
-
-    def reset_optimizer(self) -> None:
-        """Zero Adam's moments and step count (a fresh ``torch.optim.Adam``)."""
-        self.m = np.zeros(self.size)
-        self.v = np.zeros(self.size)
-        self.steps = 0
-
     def sync_target(self) -> None:
         """The target network becomes a copy of the online one."""
         self.target[:] = self.params
 
     def q(self, x: np.ndarray, target: bool = False) -> np.ndarray:
         """Q-values of feature rows ``x`` (``[batch, inputs]`` or ``[inputs]``)."""
-        h = np.asarray(x, dtype=np.float64)
-        layers = self.target_layers if target else self.layers
-        last = len(layers) - 1
-        for i, (w, b) in enumerate(layers):
-            h = h @ w + b
-            if i < last:
-                h = np.maximum(h, 0.0)
-        return h
+        return forward(self.target_layers if target else self.layers, self.as_input(x))
 
     def greedy(self, x: np.ndarray) -> int:
         """The online network's best action for one feature vector (ties: the first)."""
-        return int(np.argmax(self.q(x)))
+        return int(self.q(x).argmax())
 
     def loss_and_gradient(self, batch: Batch) -> float:
         """The TD loss of ``batch`` (MSE to the Double-DQN target); its gradient in ``grad``."""
+        next_features = self.as_input(batch.next_features)
         y = double_dqn_target(
-            self.q(batch.next_features),
-            self.q(batch.next_features, target=True),
+            self.q(next_features),
+            self.q(next_features, target=True),
             batch.rewards.astype(np.float64),
             batch.terminated.astype(np.float64),
             self.args.gamma,
         )
-        hidden = [np.asarray(batch.features, dtype=np.float64)]
-        last = len(self.layers) - 1
-        for i, (w, b) in enumerate(self.layers):
-            z = hidden[-1] @ w + b
-            hidden.append(np.maximum(z, 0.0) if i < last else z)
+        hidden = self.forward(batch.features)
         rows = np.arange(len(y))
         error = hidden[-1][rows, batch.actions] - y
         delta = np.zeros_like(hidden[-1])
         delta[rows, batch.actions] = 2.0 * error / len(y)
-        for i in range(last, -1, -1):
-            w, _ = self.layers[i]
-            gw, gb = self.grad_layers[i]
-            np.matmul(hidden[i].T, delta, out=gw)
-            delta.sum(axis=0, out=gb)
-            if i:
-                delta = (delta @ w.T) * (hidden[i] > 0.0)
+        self.backward(hidden, delta)
         return float(np.mean(error * error))
 
     def gradient_step(self, batch: Batch) -> float:
         """One Adam step on the TD loss of ``batch``, then the Polyak update of the target.
 
-        Adam as ``torch.optim.Adam`` with L2 weight decay (added to the gradient) and bias
-        correction; the target moves ``target <- τ online + (1 - τ) target``.
+        The target moves ``target <- τ online + (1 - τ) target``.
 
         Returns:
             The loss before the step.
         """
         loss = self.loss_and_gradient(batch)
-        args = self.args
-        beta1, beta2 = ADAM_BETAS
-        self.steps += 1
-        g = self.grad
-        if args.weight_decay:
-            g += args.weight_decay * self.params
-        self.m *= beta1
-        self.m += (1.0 - beta1) * g
-        self.v *= beta2
-        self.v += (1.0 - beta2) * g * g
-        correction1 = 1.0 - beta1**self.steps
-        correction2 = 1.0 - beta2**self.steps
-        denominator = np.sqrt(self.v) / np.sqrt(correction2) + ADAM_EPS
-        self.params -= (args.learning_rate / correction1) * self.m / denominator
-        self.target *= 1.0 - args.tau
-        self.target += args.tau * self.params
+        self.adam_step()
+        self.target *= 1.0 - self.args.tau
+        self.target += self.args.tau * self.params
         return loss
 
-    def export(self, prefix: str) -> dict[str, np.ndarray]:
+    def export(self, prefix: str) -> dict[str, np.ndarray]:  # type: ignore[override]
         """The online network as ``{prefix.i.weight, prefix.i.bias}`` (torch's layout)."""
         out: dict[str, np.ndarray] = {}
         for i, (w, b) in enumerate(self.layers):

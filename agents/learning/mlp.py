@@ -43,9 +43,10 @@ def forward(layers: Layers, x: np.ndarray) -> np.ndarray:
     h = x
     last = len(layers) - 1
     for i, (w, b) in enumerate(layers):
-        h = h @ w + b
+        h = h @ w
+        h += b
         if i < last:
-            h = np.maximum(h, 0.0)
+            np.maximum(h, 0.0, out=h)
     return h
 
 
@@ -132,9 +133,13 @@ class MLPLearner:
         self.v = np.zeros(self.size, dtype=self.dtype)
         self.steps = 0
 
+    def as_input(self, x: np.ndarray) -> np.ndarray:
+        """``x`` in the learner's dtype (no copy if it already is)."""
+        return np.asarray(x, dtype=self.dtype)
+
     def forward(self, x: np.ndarray) -> list[np.ndarray]:
         """Every layer's output on rows ``x``, for :meth:`backward`: ``[x, h_1, ..., output]``."""
-        hidden = [np.asarray(x, dtype=self.dtype)]
+        hidden = [self.as_input(x)]
         last = len(self.layers) - 1
         for i, (w, b) in enumerate(self.layers):
             z = hidden[-1] @ w

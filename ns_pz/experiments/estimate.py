@@ -3,11 +3,13 @@
 Nothing is trained to the end and no trial need run to its end:
 
 * **Training.** A network the run would train (one not in the cache) trains for ``probe_seconds``
-  only; its remaining steps (DDQN) or episodes (AlphaZero) are projected at the rate measured once
-  its warm-up is over (DDQN's first gradient steps start after ``learning_starts``).
-  AlphaZero's projection is a lower bound: its full-batch gradient steps grow with the data it
-  has gathered (the full FrozenLake network: projected about 6 s, trained in 20-24 s), and on
-  CartPole its self-play episodes lengthen as the network learns. The partly trained network is
+  only; its remaining steps (DDQN) or episodes (AlphaZero) are projected at the rate measured
+  over the later half of the time it trained past its warm-up (DDQN's first gradient steps start
+  after ``learning_starts``): AlphaZero's episodes cost more as training goes, since its
+  full-batch gradient steps grow with the data gathered, so the rate since its first episode
+  projected the full FrozenLake network at 4.0 CPU-s where it trains in 6.6. AlphaZero's
+  projection stays a lower bound, most on CartPole, where its self-play episodes lengthen as the
+  network learns. The partly trained network is
   kept, in a temporary cache, as a stand-in: the learning agents' trials are timed with it (a
   decision costs the same with any weights), and the user's cache is never written. A cached
   network costs the run nothing.
@@ -271,11 +273,17 @@ def _network(
     return TrainingCost(key, need.label, wall, False, probe.done, total, unit, cpu)
 
 
+MARK_SECONDS = 0.01
+"""Least time between the probe's records of training progress."""
+
+
 class _Probe:
-    """Stops training after ``seconds``; projects the rest from the rate after ``warm_up``.
+    """Stops training after ``seconds``; projects the rest from the late rate after ``warm_up``.
 
     It stops once ``seconds`` have passed and the rate has been measured past the warm-up for
-    at least half of them (or training ended).
+    at least half of them (or training ended). The rate projected is that of the later half of
+    the time measured past the warm-up (work that grows as training goes is not averaged with
+    its cheap start).
     """
 
     def __init__(self, seconds: float, warm_up: int) -> None:
@@ -286,6 +294,7 @@ class _Probe:
         self.elapsed = 0.0
         self.cpu = 0.0
         self._mark: tuple[float, int] | None = None  # (elapsed, done) once warmed up
+        self._marks: list[tuple[float, int]] = []  # (elapsed, done) past it, 10 ms apart or more
 
     def step(self, done: int, total: int) -> bool:
         """Record ``done`` units now; True: enough is measured, stop training."""
@@ -293,6 +302,10 @@ class _Probe:
         self.cpu = time.process_time() - self.cpu_start
         if self._mark is None and done > self.warm_up:
             self._mark = (self.elapsed, done)
+        if self._mark is not None and (
+            not self._marks or self.elapsed - self._marks[-1][0] >= MARK_SECONDS
+        ):
+            self._marks.append((self.elapsed, done))
         if self._mark is None or self.elapsed < self.seconds:
             return False
         return self.elapsed - self._mark[0] >= self.seconds / 2
@@ -314,12 +327,15 @@ class _Probe:
         return min(1.0, self.cpu / max(self.elapsed, 1e-9)) if self.elapsed > 0 else 1.0
 
     def projected(self, total: int) -> float:
-        """Elapsed time plus the rest at the rate measured after the warm-up."""
+        """Elapsed time plus the rest at the rate of the later half of the time measured."""
         if self.done >= total:
             return self.elapsed
         rate = self.done / max(self.elapsed, 1e-9)
         if self._mark is not None and self.done > self._mark[1]:
-            rate = (self.done - self._mark[1]) / max(self.elapsed - self._mark[0], 1e-9)
+            halfway = (self._mark[0] + self.elapsed) / 2
+            since = next(m for m in reversed(self._marks) if m[0] <= halfway)
+            if self.done > since[1]:
+                rate = (self.done - since[1]) / max(self.elapsed - since[0], 1e-9)
         return self.elapsed + (total - self.done) / rate
 
 
