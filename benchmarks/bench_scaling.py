@@ -8,11 +8,12 @@ CPU time is the run's and its worker processes' (user + system). Run from the re
     python benchmarks/bench_scaling.py --size full --workers 2  # one figure
     python benchmarks/bench_scaling.py --project 16             # 1 and 2, then 16 projected
 
-``--project N`` projects ``N`` workers from the CPU times of the runs on 1 and 2 workers: the
-second worker's extra CPU (its start-up and every first use it repeats) is paid by each further
-worker, the work is shared evenly, and no worker can finish before the longest network is
-trained (its time in the 1-worker run's log, times the share of a core that run got: CPU over
-wall). A run on one idle core takes its CPU time.
+``--project N`` projects ``N`` workers from the runs on 1 and 2 workers by playing the runner's
+schedule on paper (:func:`ns_pz.experiments.projection.project`): the networks train first, one
+per worker, for the time the 1-worker run's log gives them; each trial takes the time its row
+of the 1-worker run recorded and starts on the first free worker once its networks are ready;
+every worker first pays the second worker's extra CPU (its start-up and every first use it
+repeats). A run on one idle core takes its CPU time.
 
 The cache used is ``--cache`` (default: a folder under the system's temporary folder, kept
 between calls so the compiled kernels are built once); the user's cache is never touched.
@@ -21,6 +22,7 @@ between calls so the compiled kernels are built once); the user's cache is never
 from __future__ import annotations
 
 import argparse
+import csv
 import os
 import re
 import resource
@@ -30,7 +32,13 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import defaultdict
 from pathlib import Path
+
+from ns_pz.experiments.projection import GroupTime, project
+from ns_pz.experiments.runner import needed_networks
+from ns_pz.experiments.spec import load_spec
+from ns_pz.experiments.trials import expand
 
 
 def run_once(
@@ -57,12 +65,22 @@ def run_once(
         wall = time.perf_counter() - start
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         text = log.read_text()
+        rows = []
+        for path in sorted(out.rglob("results.csv")):
+            with open(path, newline="") as handle:
+                rows += list(csv.DictReader(handle))
     finally:
         shutil.rmtree(out, ignore_errors=True)
     if done.returncode not in (0, 1):
         raise RuntimeError(f"{' '.join(argv)} failed:\n{text[-3000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return {"wall": wall, "cpu": cpu, "load": (load, os.getloadavg()[0]), "log": text}
+    return {
+        "wall": wall,
+        "cpu": cpu,
+        "load": (load, os.getloadavg()[0]),
+        "log": text,
+        "rows": rows,
+    }
 
 
 def main() -> None:
@@ -94,20 +112,32 @@ def main() -> None:
             flush=True,
         )
     if args.project is not None and {1, 2} <= set(results):
-        print(projected(results[1], results[2], args.project))
+        spec = load_spec(args.spec, args.size)
+        print(projected(spec, results[1], results[2], args.project))
 
 
-def projected(one: dict, two: dict, workers: int) -> str:
+def projected(spec, one: dict, two: dict, workers: int) -> str:  # type: ignore[no-untyped-def]
     """``workers`` workers projected from the runs on 1 and 2 (see the module docstring)."""
-    extra = max(0.0, two["cpu"] - one["cpu"])
-    trained = [float(m) for m in re.findall(r"^trained .* in ([0-9.]+) s$", one["log"], re.M)]
-    longest = max(trained, default=0.0) * min(1.0, one["cpu"] / one["wall"])
-    cpu = one["cpu"] + (workers - 1) * extra
-    wall = max(longest, cpu / workers)
+    startup = max(0.0, two["cpu"] - one["cpu"])
+    trained = dict(re.findall(r"^trained (.*) in ([0-9.]+) s$", one["log"], re.M))
+    keys: dict[str, set[str]] = defaultdict(set)  # agent label -> its networks' keys
+    networks = {}
+    for label, need in needed_networks(spec, expand(spec)):
+        keys[label].add(need.request.key)
+        networks[need.request.key] = float(trained.get(need.label, 0.0))
+    times: dict[tuple[str, str, str], list[float]] = defaultdict(list)  # in table order
+    for row in one["rows"]:
+        times[(row["setting"], row["notification"], row["agent"])].append(float(row["wall_time"]))
+    groups = [
+        GroupTime(sum(seconds) / len(seconds), len(seconds), frozenset(keys[agent]))
+        for (_, _, agent), seconds in times.items()
+    ]
+    plan = project(sorted(networks.items()), groups, workers, startup)
     return (
-        f"projected on {workers} workers: CPU {cpu:.1f} s ({extra:.1f} s more per worker), "
-        f"longest training {longest:.1f} s, wall {wall:.1f} s: {one['cpu'] / wall:.1f}x one "
-        f"idle core ({one['cpu']:.1f} s)"
+        f"projected on {workers} workers (the runner's schedule; trial and training times of "
+        f"the 1-worker run, {startup:.1f} s of start-up and first uses per worker): "
+        f"{plan.text()} ({plan.wall:.1f} s): {one['cpu'] / plan.wall:.1f}x one idle core "
+        f"({one['cpu']:.1f} s)"
     )
 
 

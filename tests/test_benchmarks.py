@@ -143,3 +143,44 @@ def test_trial_costs_benchmark_projects_a_truncated_trial(tmp_path):
     row = out.strip().splitlines()[-1].split()
     assert row[:3] == ["0", "20", "cut"]
     assert row.count("<=") == 2 and row[-1] == "-"
+
+
+def test_scaling_projection_plays_the_runners_schedule():
+    """bench_scaling's --project: trials needing a network wait for it, the rest fill the cores.
+
+    Quick FrozenLake single table, every trial 0.01 s, each network 10 s to train, 1 s of start-up
+    per worker: on 16 workers nothing that needs a network ends before 11 s, and the trials
+    that need one (spread over all 16) add their share after that.
+    """
+    import importlib.util
+
+    from ns_pz.experiments.runner import needed_networks
+    from ns_pz.experiments.spec import load_spec
+    from ns_pz.experiments.trials import expand
+
+    loaded = importlib.util.spec_from_file_location(
+        "bench_scaling", BENCH.parent / "bench_scaling.py"
+    )
+    module = importlib.util.module_from_spec(loaded)
+    loaded.loader.exec_module(module)
+    spec = load_spec("frozenlake-single", "quick")
+    trials = expand(spec)
+    needs = needed_networks(spec, trials)
+    log = "".join(f"trained {need.label} in 10.0 s\n" for _, need in needs)
+    rows = [
+        {
+            "setting": t.cell.setting,
+            "notification": t.cell.notification,
+            "agent": t.agent.label,
+            "wall_time": "0.01",
+        }
+        for t in trials
+    ]
+    one = {"cpu": 20.0 + 0.01 * len(rows), "wall": 30.0, "log": log, "rows": rows}
+    two = {"cpu": one["cpu"] + 1.0}
+    waiting = {label for label, _ in needs}
+    late = sum(t.agent.label in waiting for t in trials) * 0.01
+    text = module.projected(spec, one, two, 16)
+    wall = float(text.rsplit("(", 2)[1].split(" s)")[0])
+    assert "training 2 network(s), 20 s of work, all ready after 11 s" in text
+    assert 11.0 + late / 16 - 0.05 <= wall <= 11.0 + late / 14 + 0.05  # printed to 0.1 s
