@@ -35,8 +35,10 @@ returns, which rewards the exploration of the moment rather than the network).
 layer holds the policy logits and the value side by side (two heads on the same trunk output,
 as one matrix), trained in float32 by :class:`~ns_pz.agents.learning.mlp.MLPLearner`. On the
 full FrozenLake network (batches of up to 2,000 samples, 2,000 gradient steps) torch spent
-about 3 CPU-s importing itself and its compiler for the first optimiser and 3.2 ms a gradient
-step on one core; NumPy takes about a third of that a step. The exported weights keep the
+5.5 CPU-s importing itself and, for its first optimiser, its compiler, and its gradient steps
+slowed as weight decay drove unused weights subnormal; NumPy's steps averaged 1.5 ms on one
+core, and the whole training went from 18.0 to 6.6 CPU-s (2-core machine, shared). The
+exported weights keep the
 layout :class:`~ns_pz.agents.learning.puct.PolicyValueFunction` reads (``trunk.i``,
 ``policy.0``, ``value.0``).
 """
