@@ -37,7 +37,7 @@ from pathlib import Path
 
 from ns_pz.experiments.projection import GroupTime, project
 from ns_pz.experiments.runner import needed_networks
-from ns_pz.experiments.spec import load_spec
+from ns_pz.experiments.spec import ExperimentSpec, load_spec
 from ns_pz.experiments.trials import expand
 
 
@@ -116,17 +116,25 @@ def main() -> None:
         print(projected(spec, results[1], results[2], args.project))
 
 
-def projected(spec, one: dict, two: dict, workers: int) -> str:  # type: ignore[no-untyped-def]
-    """``workers`` workers projected from the runs on 1 and 2 (see the module docstring)."""
+def projected(spec: ExperimentSpec, one: dict, two: dict, workers: int) -> str:
+    """``workers`` workers projected from the runs on 1 and 2 (see the module docstring).
+
+    Raises:
+        ValueError: The 1-worker run's log lacks a network's ``trained ... in X s`` line.
+    """
     startup = max(0.0, two["cpu"] - one["cpu"])
     trained = dict(re.findall(r"^trained (.*) in ([0-9.]+) s$", one["log"], re.M))
     keys: dict[str, set[str]] = defaultdict(set)  # agent label -> its networks' keys
     networks = {}
     for label, need in needed_networks(spec, expand(spec)):
         keys[label].add(need.request.key)
-        networks[need.request.key] = float(trained.get(need.label, 0.0))
+        if need.label not in trained:
+            raise ValueError(f"the 1-worker run's log has no 'trained {need.label} in ...' line")
+        networks[need.request.key] = float(trained[need.label])
     times: dict[tuple[str, str, str], list[float]] = defaultdict(list)  # in table order
     for row in one["rows"]:
+        if not row["wall_time"]:  # a trial lost with its worker records no time
+            continue
         times[(row["setting"], row["notification"], row["agent"])].append(float(row["wall_time"]))
     groups = [
         GroupTime(sum(seconds) / len(seconds), len(seconds), frozenset(keys[agent]))

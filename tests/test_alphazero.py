@@ -135,8 +135,8 @@ def test_policy_value_steps_match_torch_autograd_and_adam(dead_unit):
     Torch's side is the textbook network: a ``Linear``/ReLU trunk, ReLU on its output, a policy
     and a value ``Linear`` head, ``MSE(v, z) + CE(π, log_softmax(logits))`` (the cross-entropy
     on the logits, not on softmax outputs as NS-Gym), ``backward`` and ``torch.optim.Adam``.
-    With ``dead_unit`` one trunk unit is off for the whole batch, the path that leaves its
-    weights out of the backward product.
+    With ``dead_unit`` one trunk unit is off for the whole batch (its incoming weights then
+    change by weight decay alone).
     """
     torch = pytest.importorskip("torch")
     learner = _policy_value_learner(dead_unit)
@@ -171,14 +171,50 @@ def test_policy_value_steps_match_torch_autograd_and_adam(dead_unit):
         assert learner.export()["trunk.1.bias"][2] < -99.0
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"widths": [4]}, r"widths=\[4\] must list at least two widths"),
+        ({"widths": [4, 0, 2]}, r"widths=\[4, 0, 2\] must list at least two widths, each >= 1"),
+        ({"params": np.zeros(3)}, r"params has shape \(3,\); widths \[4, 2\] need \(10,\)"),
+        ({"dtype": np.int64}, "dtype=.*int64.* is not allowed; allowed: float32, float64"),
+    ],
+)
+def test_a_learner_refuses_bad_shapes_and_dtypes(kwargs, match):
+    """Widths, the flat parameters' length and the dtype are checked, naming the value."""
+    from ns_pz.agents.learning.mlp import MLPLearner
+
+    given = {"widths": [4, 2], "params": np.zeros(10), "dtype": np.float64, **kwargs}
+    with pytest.raises(ValueError, match=match):
+        MLPLearner(given["widths"], given["params"], 1e-3, 0.0, given["dtype"])
+
+
+def test_float32_leaves_a_dead_unit_out_of_the_backward_product_and_agrees_with_float64():
+    """Three float32 steps with a unit the batch never activates equal float64's to 1e-5.
+
+    float32 takes the path that leaves the dead unit's outgoing weights out of the backward
+    product (float64 takes the plain product); the masked gradient makes the two the same.
+    """
+    x, pi, z = _batch(np.random.default_rng(1))
+    wide = _policy_value_learner(True, np.float64)
+    narrow = _policy_value_learner(True, np.float32)
+    narrow.mlp.params[:] = wide.mlp.params
+    for _ in range(3):
+        wide.gradient_step(x, pi, z)
+        narrow.gradient_step(x.astype(np.float32), pi, z)
+    np.testing.assert_allclose(narrow.mlp.params, wide.mlp.params, rtol=1e-5, atol=1e-6)
+    assert narrow.mlp.params.dtype == np.float32
+
+
 def test_a_float32_learner_flushes_subnormals_to_zero():
     """Subnormal weights (weight decay's endpoint for unused inputs) become 0 after a step.
 
     Left in, they make every product they enter tens of times slower; torch keeps them.
     """
     learner = _policy_value_learner(False, np.float32)
-    learner.mlp.params[:5] = np.float32(1e-40)
+    learner.mlp.params[:5] = np.float32(1e-40)  # input 0's weights to the first 5 units
     x, pi, z = _batch(np.random.default_rng(1))
+    x[:, 0] = 0.0  # input 0 unused: its weights' gradient is weight decay's alone (subnormal)
     learner.gradient_step(x.astype(np.float32), pi, z)
     tiny = np.finfo(np.float32).tiny
     for state in (learner.mlp.params, learner.mlp.m, learner.mlp.v):

@@ -187,7 +187,7 @@ def _bursty_ends(steps: int) -> list[tuple[float, float]]:
         if step == 1:
             cost = 2.0  # building the agent, loading kernels
         elif step % 4 == 3:
-            cost = 2.4 if step == 3 else 0.8  # a fine-tuning; the first pays torch's set-up
+            cost = 2.4 if step == 3 else 0.8  # a fine-tuning; the first pays its set-up
         clock += cost
         ends.append((clock, clock))
     return ends

@@ -151,7 +151,6 @@ params = { episodes = 2, iterations = 8, max_episode_steps = 20 }
 
 def test_networks_train_side_by_side_while_other_trials_run(tmp_path: Path, monkeypatch) -> None:
     """Two networks on three workers train at once; trials needing none run on the third."""
-    pytest.importorskip("torch")
     monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path / "cache"))
     path = tmp_path / "learners.toml"
     path.write_text(TINY + LEARNER)

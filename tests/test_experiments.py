@@ -597,7 +597,6 @@ def test_non_tabular_tables_have_no_optimum_row() -> None:
 
 def test_a_size_table_merges_nested_tables_with_the_common_ones(tmp_path: Path) -> None:
     """A size's nested table adds to the common one (it replaced it, dropping its keys)."""
-    pytest.importorskip("torch")
     text = TINY.replace(
         'name = "random"',
         'name = "pamcts"\n'
@@ -625,7 +624,6 @@ def test_learning_agents_acting_settings_are_checked_at_load(
     tmp_path: Path, agent: str, params: str, match: str
 ) -> None:
     """Before any network trains: a spec with a bad acting setting is refused at load."""
-    pytest.importorskip("torch")
     text = TINY.replace('name = "random"', f'name = "{agent}"\nparams = {params}')
     with pytest.raises(SpecError, match=match):
         load_spec(write_spec(tmp_path, text), "quick")

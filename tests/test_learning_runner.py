@@ -12,8 +12,6 @@ from ns_pz.experiments.backends import LocalBackend
 from ns_pz.experiments.runner import train_artefacts
 from ns_pz.experiments.trials import expand
 
-pytest.importorskip("torch")
-
 SPEC = """
 version = 1
 name = "learners"

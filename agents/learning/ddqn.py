@@ -168,7 +168,7 @@ class DoubleDQN(MLPLearner):
         self.target += self.args.tau * self.params
         return loss
 
-    def export(self, prefix: str) -> dict[str, np.ndarray]:  # type: ignore[override]
+    def export(self, prefix: str) -> dict[str, np.ndarray]:
         """The online network as ``{prefix.i.weight, prefix.i.bias}`` (torch's layout)."""
         out: dict[str, np.ndarray] = {}
         for i, (w, b) in enumerate(self.layers):

@@ -19,9 +19,12 @@ from collections.abc import Sequence
 import numpy as np
 
 ADAM_BETAS = (0.9, 0.999)
+"""Adam's decay rates of the first and second moments (torch's defaults)."""
 ADAM_EPS = 1e-8
+"""Adam's ε, added to the root of the second moment (torch's default)."""
 
 Layers = list[tuple[np.ndarray, np.ndarray]]
+"""``(W [in, out], b [out])`` per layer, views into a flat parameter vector."""
 
 
 def parameter_count(widths: Sequence[int]) -> int:
@@ -71,7 +74,9 @@ class MLPLearner:
     Layer ``i`` computes ``h @ W_i + b_i`` with ReLU between layers (``W_i`` is ``[in, out]``,
     the transpose of torch's ``Linear.weight``). Adam follows ``torch.optim.Adam`` with L2
     weight decay (added to the gradient) and bias correction; a float32 learner flushes
-    subnormal parameters and moments to zero after every step (:func:`flush_subnormals`).
+    subnormal parameters and moments to zero after every step (:func:`flush_subnormals`) and
+    leaves units a batch never activates out of its backward pass. A float64 learner does
+    neither: its arithmetic is that of the plain products (Double DQN's networks depend on it).
 
     Args:
         widths: ``inputs, hidden..., outputs``.
@@ -156,7 +161,7 @@ class MLPLearner:
             hidden: :meth:`forward`'s outputs for the batch.
             delta: ``[batch, outputs]`` ∂loss/∂output (the batch mean already taken); a float32
                 learner flushes its subnormal entries first (a softmax's probability of an
-                action far below the others underflows to one).
+                action far below the others underflows into the subnormal range).
         """
         if self.dtype == np.float32:
             flush_subnormals(delta)
@@ -168,13 +173,14 @@ class MLPLearner:
             if i:
                 active = hidden[i] > 0.0  # where the ReLU passed its input (and its gradient)
                 live = active.any(axis=0)
-                if live.all():
+                if self.dtype != np.float32 or live.all():
                     delta = delta @ w.T
                 else:
-                    # a unit no row of the batch activates passes no gradient back, so its
-                    # outgoing weights stay out of the product: weight decay has usually driven
-                    # them towards zero while the unit was dead, and their products with the
-                    # gradient would be subnormal, tens of times slower than the rest
+                    # float32: a unit no row of the batch activates passes no gradient back, so
+                    # its outgoing weights stay out of the product: weight decay has usually
+                    # driven them towards zero while the unit was dead, and their products with
+                    # the gradient would be subnormal, tens of times slower than the rest (a
+                    # narrower product may round differently, so float64 keeps the plain one)
                     back = np.zeros((len(delta), w.shape[0]), dtype=self.dtype)
                     back[:, live] = delta @ w[live].T
                     delta = back

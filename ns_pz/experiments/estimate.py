@@ -332,10 +332,13 @@ class _Probe:
             return self.elapsed
         rate = self.done / max(self.elapsed, 1e-9)
         if self._mark is not None and self.done > self._mark[1]:
+            rate = (self.done - self._mark[1]) / max(self.elapsed - self._mark[0], 1e-9)
             halfway = (self._mark[0] + self.elapsed) / 2
             since = next(m for m in reversed(self._marks) if m[0] <= halfway)
             if self.done > since[1]:
                 rate = (self.done - since[1]) / max(self.elapsed - since[0], 1e-9)
+            else:  # nothing finished in the later half: at most one unit in all of it
+                rate = min(rate, 1.0 / max(self.elapsed - since[0], 1e-9))
         return self.elapsed + (total - self.done) / rate
 
 
