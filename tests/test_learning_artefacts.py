@@ -167,3 +167,33 @@ def test_learning_agents_import_no_torch():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_training_runs_on_one_blas_thread_whatever_the_process_has(monkeypatch):
+    """A product split over BLAS threads sums in another order: training pins BLAS to one.
+
+    (AlphaZero's full-batch float32 steps trained another quick CliffWalking network on two
+    threads, one that failed its quality test.) The training function records the BLAS thread
+    counts it runs under, inside a process allowed two.
+    """
+    from ns_pz.agents.learning import alphazero
+    from ns_pz.agents.learning.config import AlphaZeroArgs
+    from ns_pz.agents.learning.trained import alphazero_needed
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    import ns_pz
+
+    seen = []
+
+    def record(env, args, seed, progress):
+        seen.append(
+            [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+        )
+        return {}, {}
+
+    monkeypatch.setattr(alphazero, "train_alphazero", record)
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": [0.7, 0.15, 0.15]})
+    with threadpool_limits(limits=2, user_api="blas"):
+        outside = [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+        alphazero_needed(env, AlphaZeroArgs(episodes=1)).train()
+    assert seen == [[1] * len(outside)] and outside
