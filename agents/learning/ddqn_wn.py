@@ -61,6 +61,7 @@ from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.ddqn import DoubleDQN
 from ns_pz.agents.learning.features import features
+from ns_pz.agents.learning.mlp import one_blas_thread
 from ns_pz.agents.learning.q_agent import check_fine_tuning
 from ns_pz.agents.learning.replay import ReplayBuffer
 
@@ -175,7 +176,8 @@ class FineTunedDDQNAgent(Agent):
         if self.pending and self.wait <= 0:
             if model is None:
                 raise ValueError("DDQN-WN needs the planning model on a notified change")
-            self._fine_tune(model)
+            with one_blas_thread():  # the same network whatever threads the process has
+                self._fine_tune(model)
             self.pending, self.wait = False, self.interval
         self.wait -= 1
         return self.learner.greedy(features(self.space, observation["state"]))

@@ -21,7 +21,7 @@ from gymnasium import spaces
 from ns_pz.agents.learning.artefacts import ArtefactRequest, exists, load_or_train
 from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
 from ns_pz.agents.learning.features import feature_size
-from threadpoolctl import threadpool_limits
+from ns_pz.agents.learning.mlp import one_blas_thread
 
 from ns_pz import __version__
 from ns_pz.views import NSGymEnv
@@ -66,11 +66,7 @@ class Needed:
                 returning True stops it there (the network so far is returned).
         """
         env = training_env(self.env, self.args.max_episode_steps)
-        # one BLAS thread, whatever the process has: a product split over threads sums in
-        # another order, so AlphaZero's full-batch steps would train other bits on another
-        # machine or outside a worker (the quick CliffWalking network scored 77.0 on two threads
-        # against 83.75 on one); threadpoolctl sets it in the loaded BLAS, for this block only
-        with threadpool_limits(limits=1, user_api="blas"):
+        with one_blas_thread():
             if isinstance(self.args, DDQNArgs):
                 ddqn = importlib.import_module("ns_pz.agents.learning.ddqn")
                 return ddqn.train_ddqn(env, self.args, self.args.seed, progress)
