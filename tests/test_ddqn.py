@@ -302,3 +302,27 @@ def test_bad_args_are_refused(field, value, match):
     """Bad args are refused."""
     with pytest.raises((TypeError, ValueError), match=match):
         DDQNArgs(**{field: value})
+
+
+def test_a_gradient_step_flushes_subnormal_weights_moments_and_target():
+    """The weights of a state no batch holds decay into float64's subnormal range; flushed to 0.
+
+    State 2 is only ever a next state here, so its first-layer weights get weight decay alone:
+    set subnormal, no subnormal is left after a step in the weights, their moments or the
+    target network, and every other weight moves as in a learner that had them at 0.
+    """
+    learner = new_learner(3, 3, DDQNArgs(hidden=(4,), weight_decay=1e-2), 0)
+    row = slice(2 * 4, 3 * 4)  # layer 0's weights from input 2
+    learner.params[row] = 1e-310
+    learner.target[row] = 1e-310
+    plain = new_learner(3, 3, DDQNArgs(hidden=(4,), weight_decay=1e-2), 0)
+    plain.params[row], plain.target[row] = 0.0, 0.0
+    batch, _ = _tiny_batch()
+    assert learner.gradient_step(batch) == plain.gradient_step(batch)
+    tiny = np.finfo(np.float64).tiny
+    for state in (learner.params, learner.m, learner.v, learner.target):
+        assert not np.any((state != 0) & (np.abs(state) < tiny))
+    others = np.ones(learner.size, dtype=bool)
+    others[row] = False
+    np.testing.assert_array_equal(learner.params[others], plain.params[others])
+    np.testing.assert_array_equal(learner.target[others], plain.target[others])

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import feature_size, features
-from ns_pz.agents.learning.mlp import MLPLearner, forward, layer_views
+from ns_pz.agents.learning.mlp import MLPLearner, flush_subnormals, forward, layer_views
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer
 from ns_pz.agents.learning.seeding import training_seeds
 
@@ -157,7 +157,8 @@ class DoubleDQN(MLPLearner):
     def gradient_step(self, batch: Batch) -> float:
         """One Adam step on the TD loss of ``batch``, then the Polyak update of the target.
 
-        The target moves ``target <- τ online + (1 - τ) target``.
+        The target moves ``target <- τ online + (1 - τ) target`` (subnormals flushed, as the
+        online network's are).
 
         Returns:
             The loss before the step.
@@ -166,6 +167,7 @@ class DoubleDQN(MLPLearner):
         self.adam_step()
         self.target *= 1.0 - self.args.tau
         self.target += self.args.tau * self.params
+        flush_subnormals(self.target)
         return loss
 
     def export(self, prefix: str) -> dict[str, np.ndarray]:
