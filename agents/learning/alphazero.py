@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from ns_pz.agents.learning.config import AlphaZeroArgs
 from ns_pz.agents.learning.features import feature_size, features
-from ns_pz.agents.learning.mlp import MLPLearner
+from ns_pz.agents.learning.mlp import MLPLearner, export_layers
 from ns_pz.agents.learning.puct import (
     PolicyValueFunction,
     PUCTSettings,
@@ -155,13 +155,12 @@ class PolicyValueLearner:
     def export(self) -> dict[str, np.ndarray]:
         """The weights in :class:`PolicyValueFunction`'s layout (torch's ``Linear`` shapes)."""
         *trunk, (w, b) = self.mlp.layers
-        out: dict[str, np.ndarray] = {}
-        for i, (wi, bi) in enumerate(trunk):
-            out[f"trunk.{i}.weight"], out[f"trunk.{i}.bias"] = wi.T.copy(), bi.copy()
         a = self.num_actions
-        out["policy.0.weight"], out["policy.0.bias"] = w[:, :a].T.copy(), b[:a].copy()
-        out["value.0.weight"], out["value.0.bias"] = w[:, a:].T.copy(), b[a:].copy()
-        return out
+        return {
+            **export_layers(trunk, "trunk"),
+            **export_layers([(w[:, :a], b[:a])], "policy"),
+            **export_layers([(w[:, a:], b[a:])], "value"),
+        }
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,14 @@ from typing import Any
 
 import numpy as np
 from ns_pz.agents.learning.config import DDQNArgs
-from ns_pz.agents.learning.features import feature_size, features
-from ns_pz.agents.learning.mlp import MLPLearner, flush_subnormals, forward, layer_views
+from ns_pz.agents.learning.features import NumpyMLP, feature_size, features
+from ns_pz.agents.learning.mlp import (
+    MLPLearner,
+    export_layers,
+    flush_subnormals,
+    forward,
+    layer_views,
+)
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer
 from ns_pz.agents.learning.seeding import training_seeds
 
@@ -107,22 +113,13 @@ class DoubleDQN(MLPLearner):
         """A learner starting from exported ``prefix.i.weight``/``prefix.i.bias`` arrays.
 
         Raises:
-            ValueError: No layer under ``prefix``, or shapes that do not chain.
+            ValueError: No layer under ``prefix``, or shapes that do not chain (as
+                :class:`~ns_pz.agents.learning.features.NumpyMLP`, which reads them).
         """
-        shapes = []
-        while f"{prefix}.{len(shapes)}.weight" in weights:
-            shapes.append(np.shape(weights[f"{prefix}.{len(shapes)}.weight"]))
-        if not shapes or any(len(s) != 2 for s in shapes):
-            raise ValueError(f"weights have no 2-d layers {prefix}.0, {prefix}.1, ...")
-        widths = [shapes[0][1], *(s[0] for s in shapes)]
-        parts = []
-        for i, (out, inputs) in enumerate(shapes):
-            weight = np.asarray(weights[f"{prefix}.{i}.weight"], dtype=np.float64)
-            bias = np.asarray(weights[f"{prefix}.{i}.bias"], dtype=np.float64)
-            if inputs != widths[i] or bias.shape != (out,):
-                raise ValueError(f"layer {prefix}.{i} has mismatched shapes {weight.shape}")
-            parts += [weight.T.reshape(-1), bias]
-        return cls(widths, np.concatenate(parts), args)
+        layers = NumpyMLP(weights, prefix).layers  # [in, out] float64, checked
+        widths = [layers[0][0].shape[0], *(w.shape[1] for w, _ in layers)]
+        flat = np.concatenate([part.ravel() for layer in layers for part in layer])
+        return cls(widths, flat, args)
 
     def sync_target(self) -> None:
         """The target network becomes a copy of the online one."""
@@ -172,11 +169,7 @@ class DoubleDQN(MLPLearner):
 
     def export(self, prefix: str) -> dict[str, np.ndarray]:
         """The online network as ``{prefix.i.weight, prefix.i.bias}`` (torch's layout)."""
-        out: dict[str, np.ndarray] = {}
-        for i, (w, b) in enumerate(self.layers):
-            out[f"{prefix}.{i}.weight"] = w.T.copy()
-            out[f"{prefix}.{i}.bias"] = b.copy()
-        return out
+        return export_layers(self.layers, prefix)
 
 
 def new_learner(inputs: int, num_actions: int, args: DDQNArgs, seed: int) -> DoubleDQN:

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from ns_pz.agents.learning.mlp import forward
 
 
 def feature_size(space: spaces.Space[Any]) -> int:
@@ -53,8 +54,8 @@ class NumpyMLP:
             i = len(self.layers)
             w = np.asarray(weights[f"{prefix}.{i}.weight"], dtype=np.float64)
             b = np.asarray(weights[f"{prefix}.{i}.bias"], dtype=np.float64)
-            chained = not self.layers or w.shape[1] == self.layers[-1][0].shape[1]
-            if w.ndim != 2 or not chained or b.shape != w.shape[:1]:
+            chained = w.ndim == 2 and (not self.layers or w.shape[1] == self.layers[-1][0].shape[1])
+            if not chained or b.shape != w.shape[:1]:
                 raise ValueError(f"layer {prefix}.{i} has mismatched shapes {w.shape}, {b.shape}")
             self.layers.append((w.T.copy(), b))
         if not self.layers:
@@ -72,10 +73,4 @@ class NumpyMLP:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """Outputs for ``x`` (``[input_size]`` or ``[batch, input_size]``)."""
-        h = np.asarray(x, dtype=np.float64)
-        last = len(self.layers) - 1
-        for i, (w, b) in enumerate(self.layers):
-            h = h @ w + b
-            if i < last:
-                h = np.maximum(h, 0.0)
-        return h
+        return forward(self.layers, np.asarray(x, dtype=np.float64))

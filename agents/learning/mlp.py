@@ -64,6 +64,17 @@ def layer_views(flat: np.ndarray, widths: Sequence[int]) -> Layers:
     return views
 
 
+def export_layers(layers: Layers, prefix: str) -> dict[str, np.ndarray]:
+    """``layers`` as ``{prefix.i.weight, prefix.i.bias}`` copies in torch's ``Linear`` layout.
+
+    ``weight`` is ``[out, in]``: what :class:`~ns_pz.agents.learning.features.NumpyMLP` reads.
+    """
+    out: dict[str, np.ndarray] = {}
+    for i, (w, b) in enumerate(layers):
+        out[f"{prefix}.{i}.weight"], out[f"{prefix}.{i}.bias"] = w.T.copy(), b.copy()
+    return out
+
+
 def forward(layers: Layers, x: np.ndarray) -> np.ndarray:
     """The output of the MLP ``layers`` on rows ``x`` (ReLU between layers, none after the last)."""
     h = x
