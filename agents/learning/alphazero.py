@@ -38,9 +38,8 @@ full FrozenLake network (batches of up to 2,000 samples, 2,000 gradient steps) t
 5.5 CPU-s importing itself and, for its first optimiser, its compiler, and its gradient steps
 slowed as weight decay drove unused weights subnormal; NumPy's steps averaged 1.5 ms on one
 core, and the whole training went from 18.0 to 6.6 CPU-s (2-core machine, shared). The
-exported weights keep the
-layout :class:`~ns_pz.agents.learning.puct.PolicyValueFunction` reads (``trunk.i``,
-``policy.0``, ``value.0``).
+exported weights keep the layout :class:`~ns_pz.agents.learning.puct.PolicyValueFunction`
+reads (``trunk.i``, ``policy.0``, ``value.0``).
 """
 
 from __future__ import annotations

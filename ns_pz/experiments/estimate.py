@@ -9,10 +9,9 @@ Nothing is trained to the end and no trial need run to its end:
   full-batch gradient steps grow with the data gathered, so the rate since its first episode
   projected the full FrozenLake network at 4.0 CPU-s where it trains in 6.6. AlphaZero's
   projection stays a lower bound, most on CartPole, where its self-play episodes lengthen as the
-  network learns. The partly trained network is
-  kept, in a temporary cache, as a stand-in: the learning agents' trials are timed with it (a
-  decision costs the same with any weights), and the user's cache is never written. A cached
-  network costs the run nothing.
+  network learns. The partly trained network is kept, in a temporary cache, as a stand-in: the
+  learning agents' trials are timed with it (a decision costs the same with any weights), and
+  the user's cache is never written. A cached network costs the run nothing.
 * **Trials.** Every agent × cell plays up to ``samples`` seeds, all of them within
   ``cell_seconds``: an episode still going at the cap is cut, and its time per step projected
   to the spec's horizon (an upper bound: the episode may have ended sooner). Trials of an agent
