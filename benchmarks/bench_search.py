@@ -4,9 +4,10 @@ Measured in one run on one machine:
 
 * one UCT decision at the NS-Gym paper's settings: FrozenLake (m=100, d=100,
   γ=0.99, slip 0.7/0.15/0.15), CliffWalking (m=1000, d=200, γ=0.999, goal reward 100,
-  deterministic) and CartPole (m=300, d=500, γ=0.5); ns_pz compiled (numba), ns_pz reference
-  (pure Python) and, with ``ns_gym`` importable, NS-Gym's ``MCTS`` on its planning env. Each
-  figure is the median over repeated decisions from the start state;
+  deterministic), CartPole (m=300, d=500, γ=0.5) and CartPoleGamma1 (the same at γ=1, PA-MCTS's
+  setting); ns_pz compiled (numba), ns_pz reference (pure Python) and, with ``ns_gym``
+  importable, NS-Gym's ``MCTS`` on its planning env. Each figure is the median over repeated
+  decisions from the start state;
 * one AlphaZero (PUCT) decision on CartPole at the full size of the ``cartpole-*`` specs
   (500 simulations, depth 100, c=√2, γ=1, Q min-max scaled, no root noise) with a network of
   the CartPole shape (trunk (128, 128)) and random weights (PyTorch's default initialisation,
@@ -68,6 +69,8 @@ SETTINGS: dict[str, dict[str, Any]] = {  # name: ns_pz id, env kwargs, m, d, gam
         "gamma": 0.999,
     },
     "CartPole": {"id": "ns_pz/CartPole-v0", "kwargs": {}, "m": 300, "d": 500, "gamma": 0.5},
+    # PA-MCTS's CartPole search: with γ = 1 UCT's paths run deep along the best line
+    "CartPoleGamma1": {"id": "ns_pz/CartPole-v0", "kwargs": {}, "m": 300, "d": 500, "gamma": 1.0},
 }
 
 
@@ -115,7 +118,7 @@ def ns_pz_decision(name: str, backend: str, budget: float) -> Callable[[int], ob
 def nsgym_decision(name: str, budget: float) -> Callable[[int], object]:
     """One NS-Gym MCTS decision on its planning env at the start state (same m, d, c, γ)."""
     setting = SETTINGS[name]
-    if name == "CartPole":
+    if setting["id"] == "ns_pz/CartPole-v0":
         update = ng_updates.NoUpdate(ng_schedulers.ContinuousScheduler())
         env = ng_wrappers.NSClassicControlWrapper(gym.make("CartPole-v1"), {"masspole": update})
     else:

@@ -42,7 +42,12 @@ def test_search_benchmark_smoke_run(tmp_path):
         cwd=tmp_path,
     ).stdout
     assert "One MCTS decision" in out and "Model step in the rollout loop" in out
-    for setting in ("FrozenLake m=5 d=100", "CliffWalking m=50 d=200", "CartPole m=15 d=500"):
+    for setting in (
+        "FrozenLake m=5 d=100",
+        "CliffWalking m=50 d=200",
+        "CartPole m=15 d=500 γ=0.5",
+        "CartPoleGamma1 m=15 d=500 γ=1.0",
+    ):
         assert setting in out
     assert "One AlphaZero (PUCT) decision" in out and "CartPole m=25 d=100" in out
 

@@ -26,6 +26,7 @@ import numpy as np
 from ns_pz.agents.search._kernels import (
     _find_child,
     _uniform_index,
+    family_is_deterministic,
     family_step,
     tabular_step,
 )
@@ -275,7 +276,9 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
 
     ``root`` is the root's ``float64`` state vector; a node's network input is its state vector
     rounded to float32 (the family's observation) and back. Children of a chance node are keyed
-    by the exact next state vector. Returns ``(root visits, root Q, nodes, simulated steps)``.
+    by the exact next state vector; a deterministic family's known edge is walked without
+    simulating it again (see :func:`~ns_pz.agents.search._kernels.uct`). Returns ``(root
+    visits, root Q, nodes, simulated steps)``.
     """
     num_actions = root_priors.shape[0]
     dim = root.shape[0]
@@ -297,6 +300,8 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
     scores = np.empty(num_actions)
     ties = np.empty(num_actions, dtype=np.int64)
     sampled = np.empty(dim)
+    edge_reward = np.zeros((capacity, num_actions))  # read only for a deterministic family
+    deterministic = family_is_deterministic(data)
     x = np.empty(dim)
     width = dim
     for k in range(layout.shape[0]):
@@ -331,17 +336,26 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
                 scores,
                 ties,
             )
-            reward, done = family_step(data, states[node], sampled, action, model_rng)
+            known = deterministic and first_child[node, action] >= 0
+            if known:  # the edge's one outcome, as simulated when it was added
+                child = first_child[node, action]
+                last = -1
+                reward = edge_reward[node, action]
+                done = terminal[child]
+            else:
+                reward, done = family_step(data, states[node], sampled, action, model_rng)
             simulated += 1
             path_nodes[length] = node
             path_actions[length] = action
             path_rewards[length] = reward
             length += 1
-            child, last = _find_child(first_child, next_sibling, states, node, action, sampled)
+            if not known:
+                child, last = _find_child(first_child, next_sibling, states, node, action, sampled)
             if child < 0:
                 child = num_nodes
                 num_nodes += 1
                 states[child] = sampled
+                edge_reward[node, action] = reward
                 if last < 0:
                     first_child[node, action] = child
                 else:

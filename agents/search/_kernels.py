@@ -45,9 +45,12 @@ CACHE = __name__ == "ns_pz.agents.search._kernels"
 
 _STEPS: dict[type, Any] = {}
 _ROLLOUTS: dict[type, Any] = {}
+_DETERMINISTIC: set[type] = set()
 
 
-def register_step(data_cls: type, step: Any, rollout: Any = None) -> None:
+def register_step(
+    data_cls: type, step: Any, rollout: Any = None, deterministic: bool = False
+) -> None:
     """Make ``step`` (and ``rollout``) the compiled dynamics of ``data`` arguments of ``data_cls``.
 
     Args:
@@ -59,11 +62,38 @@ def register_step(data_cls: type, step: Any, rollout: Any = None) -> None:
         rollout: Optional hot loop with the signature of :func:`generic_rollout`. The generic
             one calls ``step`` per transition; a family-specific loop that reads ``data`` once
             avoids numba's per-call reference counting of the arrays in ``data`` (tabular:
-            15-50 instead of ~150 ns per step). It must consume random numbers as the generic one.
+            15-50 instead of ~150 ns per step) and keeps the state in registers. It must
+            consume random numbers as the generic one.
+        deterministic: ``step`` never draws from ``rng`` and its outcome is a function of
+            ``(state, action)``. A search then walks an edge of its tree it has already
+            simulated without simulating it again (the same next state, reward and end): the
+            same tree for the same draws, in about 40 % less time per UCT decision with γ = 1
+            on CartPole, where the paths run deep (3.4 against 2.0 ms).
     """
     _STEPS[data_cls] = step
     if rollout is not None:
         _ROLLOUTS[data_cls] = rollout
+    if deterministic:
+        _DETERMINISTIC.add(data_cls)
+    else:
+        _DETERMINISTIC.discard(data_cls)
+
+
+def family_is_deterministic(data: Any) -> bool:
+    """Stub resolved by numba to a constant: whether ``type(data)``'s step is deterministic."""
+    raise NotImplementedError("family_is_deterministic only runs inside compiled code")
+
+
+@overload(family_is_deterministic, jit_options={"cache": CACHE}, inline="always")  # type: ignore[typeddict-unknown-key]
+def _family_is_deterministic_overload(data: Any) -> Any:
+    if not isinstance(data, types.BaseNamedTuple):
+        return None
+    answer = data.instance_class in _DETERMINISTIC  # type: ignore[attr-defined]
+
+    def impl(data: Any) -> bool:  # pragma: no cover
+        return answer
+
+    return impl
 
 
 def family_step(data: Any, state: Any, out: Any, action: Any, rng: Any) -> Any:
@@ -266,7 +296,60 @@ def cartpole_step(data, state, out, action, rng):  # type: ignore[no-untyped-def
     return 1.0, terminal
 
 
-register_step(CartPoleData, cartpole_step)
+@numba.njit(cache=CACHE)
+def cartpole_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """:func:`generic_rollout` with :func:`cartpole_step` written into the loop.
+
+    The state stays in four locals; the floating-point operations are the step's, in its order.
+    """
+    x = state[0]
+    x_dot = state[1]
+    angle = state[2]
+    angle_dot = state[3]
+    force_mag = data.force_mag
+    gravity = data.gravity
+    masspole = data.masspole
+    length = data.length
+    total_mass = masspole + data.masscart
+    polemass_length = masspole * length
+    tau = data.tau
+    euler = data.euler
+    x_threshold = data.x_threshold
+    theta_threshold = data.theta_threshold
+    total = 0.0
+    discount = 1.0
+    steps = 0
+    while steps < depth:
+        action = _uniform_index(search_rng, num_actions)
+        force = force_mag if action == 1 else -force_mag
+        cos = math.cos(angle)
+        sin = math.sin(angle)
+        temp = (force + polemass_length * (angle_dot * angle_dot) * sin) / total_mass
+        angle_acc = (gravity * sin - cos * temp) / (
+            length * (4.0 / 3.0 - masspole * (cos * cos) / total_mass)
+        )
+        x_acc = temp - polemass_length * angle_acc * cos / total_mass
+        if euler:
+            x = x + tau * x_dot
+            x_dot = x_dot + tau * x_acc
+            angle = angle + tau * angle_dot
+            angle_dot = angle_dot + tau * angle_acc
+        else:
+            x_dot = x_dot + tau * x_acc
+            x = x + tau * x_dot
+            angle_dot = angle_dot + tau * angle_acc
+            angle = angle + tau * angle_dot
+        total += discount * 1.0  # CartPole's reward
+        discount *= gamma
+        steps += 1
+        if x < -x_threshold or x > x_threshold:
+            break
+        if angle < -theta_threshold or angle > theta_threshold:
+            break
+    return total, steps
+
+
+register_step(CartPoleData, cartpole_step, cartpole_rollout, deterministic=True)
 
 
 # --- the search -----------------------------------------------------------------------------
@@ -288,7 +371,7 @@ def repeated_rollouts(data, state, count, num_actions, depth, gamma, model_rng, 
     return returns, total_steps
 
 
-@numba.njit(cache=CACHE)
+@numba.njit(cache=CACHE, inline="always")  # called at every edge of every path
 def _select_action(q, visits, node_visits, num_actions, c, rng, ties):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """Untried actions first (one at random), then UCB with random tie-breaks."""
     untried = 0
@@ -345,6 +428,9 @@ def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_
     Node ``i`` (0 is the root) has ``states[i]``, ``terminal[i]``, ``node_visits[i]``,
     ``visits[i, a]`` and ``q[i, a]``; its children under action ``a`` form a linked list from
     ``first_child[i, a]`` through ``next_sibling``. At most one node is created per iteration.
+    For a deterministic family (:func:`register_step`) an edge already in the tree is walked
+    from ``edge_reward`` and its one child, not simulated again; it still counts as a
+    simulated step, so the count matches the reference search's.
 
     Returns:
         ``(parent, parent_action, states, terminal, node_visits, visits, q, num_nodes,
@@ -366,6 +452,8 @@ def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_
     path_rewards = np.empty(capacity)
     ties = np.empty(num_actions, dtype=np.int64)
     sampled = np.empty(dim)
+    edge_reward = np.zeros((capacity, num_actions))  # read only for a deterministic family
+    deterministic = family_is_deterministic(data)
     states[0] = root
     num_nodes = 1
     simulated = 0
@@ -377,13 +465,21 @@ def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_
             action = _select_action(
                 q[node], visits[node], node_visits[node], num_actions, c, search_rng, ties
             )
-            reward, done = family_step(data, states[node], sampled, action, model_rng)
+            known = deterministic and first_child[node, action] >= 0
+            if known:  # the edge's one outcome, as simulated when it was added
+                child = first_child[node, action]
+                last = -1
+                reward = edge_reward[node, action]
+                done = terminal[child]
+            else:
+                reward, done = family_step(data, states[node], sampled, action, model_rng)
             simulated += 1
             path_nodes[length] = node
             path_actions[length] = action
             path_rewards[length] = reward
             length += 1
-            child, last = _find_child(first_child, next_sibling, states, node, action, sampled)
+            if not known:
+                child, last = _find_child(first_child, next_sibling, states, node, action, sampled)
             new = child < 0
             if new:
                 child = num_nodes
@@ -392,6 +488,7 @@ def uct(data, root, num_actions, iterations, depth, c, gamma, model_rng, search_
                 terminal[child] = done
                 parent[child] = node
                 parent_action[child] = action
+                edge_reward[node, action] = reward
                 if last < 0:
                     first_child[node, action] = child
                 else:

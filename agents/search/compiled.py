@@ -19,9 +19,10 @@ Adding a family takes three pieces:
    and draws randomness with ``rng.random()`` in the same order as the family's Python ``step``
    (then the compiled and reference searches agree bit for bit; test it as
    ``tests/test_mcts.py`` does for CartPole), registered with
-   ``_kernels.register_step(DataClass, step)`` in a module named in
-   :data:`COMPILED_STEP_MODULES` (imported when the kernels load; ``_kernels`` itself shows
-   both built-in steps);
+   ``_kernels.register_step(DataClass, step)`` (``deterministic=True`` if it never draws:
+   searches then walk known edges of their trees without simulating them again) in a module
+   named in :data:`COMPILED_STEP_MODULES` (imported when the kernels load; ``_kernels`` itself
+   shows both built-in steps);
 3. ``register_compiled_family(FamilyClass, encode, to_vector, from_vector)`` in numba-free code
    (here, beside the built-ins): ``encode(model)`` builds the ``NamedTuple`` from the model's θ.
 """
