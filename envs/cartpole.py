@@ -67,6 +67,7 @@ class CartPoleFamily(EnvFamily):
     params_cls = CartPoleParams
     render_modes = ("human", "rgb_array")
     render_fps = 50
+    deterministic_step = True
 
     def __init__(self, kinematics_integrator: str = "euler") -> None:
         if kinematics_integrator not in ("euler", "semi-implicit euler"):

@@ -116,6 +116,7 @@ class MountainCarFamily(EnvFamily):
     params_cls = MountainCarParams
     render_modes = ("human", "rgb_array")
     render_fps = 30
+    deterministic_step = True
 
     def __init__(self, goal_velocity: float = 0.0) -> None:
         self.goal_velocity = _check_goal_velocity(goal_velocity)
@@ -189,6 +190,7 @@ class MountainCarContinuousFamily(EnvFamily):
     params_cls = MountainCarContinuousParams
     render_modes = ("human", "rgb_array")
     render_fps = 30
+    deterministic_step = True
 
     def __init__(self, goal_velocity: float = 0.0) -> None:
         self.goal_velocity = _check_goal_velocity(goal_velocity)

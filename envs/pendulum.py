@@ -68,6 +68,7 @@ class PendulumFamily(EnvFamily):
     params_cls = PendulumParams
     render_modes = ("human", "rgb_array")
     render_fps = 30
+    deterministic_step = True
 
     def __init__(self) -> None:
         high = np.array([1.0, 1.0, MAX_SPEED], dtype=np.float32)

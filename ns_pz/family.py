@@ -43,6 +43,11 @@ class EnvFamily(ABC):
     """Frames per second of ``"human"`` rendering and of recorded videos."""
     has_info: ClassVar[bool] = False
     """Whether :meth:`info` says anything (the views skip the call otherwise)."""
+    deterministic_step: ClassVar[bool] = False
+    """Whether :meth:`step` never draws from its generator, so that its outcome is a function
+    of ``(state, action, θ)``: a caller may then play once what it would play several times
+    alike (DDQN-WN's scoring episodes). Only set it for a step that leaves ``rng`` untouched
+    (``tests/test_envs.py`` checks the built-in families that set it)."""
     _int_actions: tuple[Any, int, int]
     """The action space and the ints it holds (set by :meth:`check_action` on first use; a
     space is replaced, never changed in place, as Gymnasium's spaces are treated)."""

@@ -306,11 +306,12 @@ def test_a_time_budget_replaces_the_step_counts():
     assert agent.buffer.size == used["model_steps"]
 
 
-def test_on_cartpole_the_scoring_episodes_are_copies():
+def test_on_cartpole_the_scoring_episodes_are_copies_and_one_is_played_for_all():
     """CartPole is deterministic: 16 greedy scoring episodes from one state return one value.
 
     So the CartPole specs score with 2 episodes, which decide exactly as 16 do (every paired
-    difference equal: the standard error is 0 either way).
+    difference equal: the standard error is 0 either way), and the agent plays one of them for
+    all: the same returns and step count as playing all 16.
     """
     from ns_pz.agents.learning.ddqn_wn import FineTunedDDQNAgent
 
@@ -331,3 +332,8 @@ def test_on_cartpole_the_scoring_episodes_are_copies():
     model = env.planning_model()
     returns, steps = agent._greedy_returns(model, model.get_state(), seed=7)
     assert len(returns) == 16 and np.all(returns == returns[0]) and steps == 16 * returns[0]
+    assert 1 < returns[0] < 50  # the episode ended before the cap: it was played, not cut
+    model.family.deterministic_step = False  # this instance only: all 16 are played
+    played, played_steps = agent._greedy_returns(model, model.get_state(), seed=7)
+    np.testing.assert_array_equal(played, returns)
+    assert played_steps == steps

@@ -190,3 +190,48 @@ def test_slip_outcomes_are_oriented_as_documented():
     lake = ns_pz.make_gym("ns_pz/FrozenLake-v0", params={"slip": (0.0, 0.0, 1.0)})
     lake.reset(seed=0)
     assert lake.step(2)[0]["state"] == 4  # RIGHT turned by -1 is DOWN
+
+
+CLASSIC_IDS = [
+    "ns_pz/CartPole-v0",
+    "ns_pz/MountainCar-v0",
+    "ns_pz/MountainCarContinuous-v0",
+    "ns_pz/Acrobot-v0",
+    "ns_pz/Pendulum-v0",
+    "ns_pz/FrozenLake-v0",
+    "ns_pz/CliffWalking-v0",
+    "ns_pz/Bridge-v0",
+]
+
+
+@pytest.mark.parametrize("env_id", CLASSIC_IDS)
+def test_a_family_that_says_its_step_is_deterministic_never_draws(env_id):
+    """deterministic_step: 300 random steps leave the generator as it was; a repeat is equal."""
+    env = ns_pz.make_gym(env_id)
+    env.reset(seed=0)
+    family, theta = env.family, env.planning_model().theta
+    if not family.deterministic_step:
+        pytest.skip(f"{type(family).__name__}'s step may draw")
+    rng = np.random.default_rng(3)
+    actions = np.random.default_rng(4)
+    state = family.initial_state(np.random.default_rng(0))
+    before = rng.bit_generator.state
+    for _ in range(300):
+        action = family.action_space.sample()
+        if isinstance(family.action_space, gym.spaces.Discrete):
+            action = int(actions.integers(family.action_space.n))
+        outcome = family.step(state, action, theta, rng)
+        assert family.step(state, action, theta, np.random.default_rng(9)) == outcome
+        state = outcome[0] if not outcome[2] else family.initial_state(np.random.default_rng(1))
+    assert rng.bit_generator.state == before
+
+
+def test_the_families_whose_steps_draw_do_not_say_they_are_deterministic():
+    """Acrobot (torque noise) and the slip grids draw in their step."""
+    flagged = {i for i in CLASSIC_IDS if ns_pz.make_gym(i).family.deterministic_step}
+    assert flagged == {
+        "ns_pz/CartPole-v0",
+        "ns_pz/MountainCar-v0",
+        "ns_pz/MountainCarContinuous-v0",
+        "ns_pz/Pendulum-v0",
+    }

@@ -256,19 +256,30 @@ class FineTunedDDQNAgent(Agent):
         The episodes run side by side (one forward pass per step for all of them) on
         ``model.family.step`` under ``model.theta`` with a generator seeded by ``seed``, so two
         networks scored with one seed meet the same random draws; the handed model's own
-        generator and state are left alone.
+        generator and state are left alone. Under a family whose step never draws
+        (``deterministic_step``: CartPole) the episodes are copies of one another, so one is
+        played for all (the same returns and step count; half the scoring time at two).
         """
         rng = np.random.default_rng(seed)
-        observe, step, theta = model.family.observe, model.family.step, model.theta
-        states = [start] * self.evaluation_episodes
-        returns = np.zeros(self.evaluation_episodes)
-        live = list(range(self.evaluation_episodes))
+        family, theta = model.family, model.theta
+        observe, step = family.observe, family.step
+        episodes = self.evaluation_episodes
+        # A step that never draws plays every episode alike: one is played, and the network
+        # still sees a row per episode (a product over fewer rows may round differently).
+        played = 1 if family.deterministic_step else episodes
+        states = [start] * played
+        returns = np.zeros(played)
+        live = list(range(played))
         steps = 0
         for _ in range(self.args.max_episode_steps):
             if not live:
                 break
             x = np.stack([features(self.space, observe(states[i])) for i in live])
+            if played < episodes:
+                x = np.repeat(x, episodes, axis=0)
             actions = self.learner.q(x).argmax(axis=1).tolist()
+            if played < episodes:  # copies of one row: its action
+                actions = actions[:1]
             still = []
             for i, action in zip(live, actions, strict=True):
                 states[i], reward, terminal = step(states[i], int(action), theta, rng)
@@ -277,6 +288,8 @@ class FineTunedDDQNAgent(Agent):
                     still.append(i)
             steps += len(live)
             live = still
+        if played < episodes:
+            return np.repeat(returns, episodes), steps * episodes
         return returns, steps
 
     def __repr__(self) -> str:
