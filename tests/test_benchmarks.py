@@ -8,8 +8,19 @@ import sys
 from pathlib import Path
 
 import pytest
+from specs_for_tests import RANDOM, tiny_spec
 
 BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_core.py"
+
+
+def _bench_module(name: str):
+    """A script of benchmarks/ imported as a module."""
+    import importlib.util
+
+    loaded = importlib.util.spec_from_file_location(name, BENCH.parent / f"{name}.py")
+    module = importlib.util.module_from_spec(loaded)
+    loaded.loader.exec_module(module)
+    return module
 
 
 def test_core_benchmark_smoke_run():
@@ -157,17 +168,11 @@ def test_scaling_projection_plays_the_runners_schedule():
     per worker: on 16 workers nothing that needs a network ends before 11 s, and the trials
     that need one (spread over all 16) add their share after that.
     """
-    import importlib.util
-
     from ns_pz.experiments.runner import needed_networks
     from ns_pz.experiments.spec import load_spec
     from ns_pz.experiments.trials import expand
 
-    loaded = importlib.util.spec_from_file_location(
-        "bench_scaling", BENCH.parent / "bench_scaling.py"
-    )
-    module = importlib.util.module_from_spec(loaded)
-    loaded.loader.exec_module(module)
+    module = _bench_module("bench_scaling")
     spec = load_spec("frozenlake-single", "quick")
     trials = expand(spec)
     needs = needed_networks(spec, trials)
@@ -189,3 +194,33 @@ def test_scaling_projection_plays_the_runners_schedule():
     wall = float(text.rsplit("(", 2)[1].split(" s)")[0])
     assert "training 2 network(s), 20 s of work, all ready after 11 s" in text
     assert 11.0 + late / 16 - 0.05 <= wall <= 11.0 + late / 14 + 0.05  # printed to 0.1 s
+
+
+def test_paper_sample_scales_each_cell_and_bounds_it_by_resampling_seeds(tmp_path):
+    """Two cells: 10 × (1 + 3) + 2 × 5 = 50 s; resampled seeds keep it within [30, 70]."""
+    from ns_pz.experiments import load_spec
+
+    module = _bench_module("bench_paper_sample")
+    groups = {("s", "a"): (10.0, [1.0, 3.0]), ("s", "b"): (2.0, [5.0])}
+    total, low, high = module.project(groups, draws=500)
+    assert total == 50.0
+    assert 30.0 <= low < total < high <= 70.0  # 10 × (2, 4, 6) + 10
+    path = tmp_path / "tiny.toml"
+    path.write_text(tiny_spec(RANDOM))
+    with pytest.raises(ValueError, match=r"seeds=5 must lie in \[1, 4\] for tiny"):
+        module.sampled(load_spec(path, "quick"), 5)
+
+
+def test_paper_sample_plays_the_first_seeds_and_projects_them(tmp_path):
+    """--seeds 2 of a 4-episode spec: every cell's two trials played, totals scaled by 2."""
+    path = tmp_path / "tiny.toml"
+    path.write_text(tiny_spec(RANDOM))
+    bench = BENCH.parent / "bench_paper_sample.py"
+    argv = [sys.executable, str(bench), str(path), "--size", "quick", "--seeds", "2"]
+    argv += ["--workers", "1", "--out", str(tmp_path / "out"), "--draws", "50"]
+    env = {**os.environ, "NS_PZ_CACHE_DIR": str(tmp_path / "cache")}
+    out = subprocess.run(argv, capture_output=True, text=True, check=True, env=env).stdout
+    assert "The first 2 seeds of every cell (quick size)" in out
+    assert out.strip().splitlines()[-1].split()[0] == "all"
+    rows = (tmp_path / "out" / "tiny-quick" / "trials.jsonl").read_text().splitlines()
+    assert len(rows) == 2 * 2 * 2  # 2 settings × 2 levels × 1 agent × 2 seeds
