@@ -47,7 +47,8 @@ class EnvFamily(ABC):
     """Whether :meth:`step` never draws from its generator, so that its outcome is a function
     of ``(state, action, θ)``: a caller may then play once what it would play several times
     alike (DDQN-WN's scoring episodes). Only set it for a step that leaves ``rng`` untouched
-    (``tests/test_envs.py`` checks the built-in families that set it)."""
+    (``tests/test_envs.py`` checks the built-in families that set it); a subclass whose step
+    draws (noise added to a deterministic family) must set it back to False."""
     _int_actions: tuple[Any, int, int]
     """The action space and the ints it holds (set by :meth:`check_action` on first use; a
     space is replaced, never changed in place, as Gymnasium's spaces are treated)."""

@@ -212,7 +212,7 @@ def test_paper_sample_scales_each_cell_and_bounds_it_by_resampling_seeds(tmp_pat
 
 
 def test_paper_sample_plays_the_first_seeds_and_projects_them(tmp_path):
-    """--seeds 2 of a 4-episode spec: every cell's two trials played, totals scaled by 2."""
+    """--seeds 2 of a 4-episode spec: the first two seeds of every cell played and reported."""
     path = tmp_path / "tiny.toml"
     path.write_text(tiny_spec(RANDOM))
     bench = BENCH.parent / "bench_paper_sample.py"

@@ -21,9 +21,10 @@ compile once per process.
 
 The machine code is cached in a user cache folder, never in the package
 (:mod:`ns_pz.agents.search.numba_cache`; ``NS_PZ_CACHE_DIR`` moves it). Numba caches the kernel
-under this source file: editing a registered step in another module does not invalidate it.
-After changing a compiled step, delete that folder (or point ``NS_PZ_CACHE_DIR`` at a fresh
-one); the tests that compare the compiled and reference paths catch a stale cache.
+under this source file: editing a registered step in another module does not invalidate it,
+nor does changing a step's ``deterministic`` flag (the kernels read it when they compile).
+After changing a compiled step or its flag, delete that folder (or point ``NS_PZ_CACHE_DIR``
+at a fresh one); the tests that compare the compiled and reference paths catch a stale cache.
 """
 
 from __future__ import annotations
@@ -67,8 +68,8 @@ def register_step(
         deterministic: ``step`` never draws from ``rng`` and its outcome is a function of
             ``(state, action)``. A search then walks an edge of its tree it has already
             simulated without simulating it again (the same next state, reward and end): the
-            same tree for the same draws, in about 40 % less time per UCT decision with γ = 1
-            on CartPole, where the paths run deep (3.4 against 2.0 ms).
+            same tree for the same draws. On CartPole with γ = 1, where UCT's paths run deep,
+            it alone took a decision (m=300, d=500) from 3.4 to 2.0 ms.
     """
     _STEPS[data_cls] = step
     if rollout is not None:

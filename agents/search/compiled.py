@@ -185,13 +185,15 @@ def kernels_for(data_cls: type) -> ModuleType:
     return kernels() if data_cls.__module__.startswith("ns_pz.") else uncached_kernels()
 
 
-def register_step(data_cls: type, step: Any, rollout: Any = None) -> None:
+def register_step(
+    data_cls: type, step: Any, rollout: Any = None, deterministic: bool = False
+) -> None:
     """Register the compiled ``step`` (and optional ``rollout``) of ``data_cls``'s family.
 
-    See :func:`ns_pz.agents.search._kernels.register_step` for the contract; this picks the
-    cached or uncached kernels (:func:`kernels_for`).
+    See :func:`ns_pz.agents.search._kernels.register_step` for the contract (``deterministic``
+    included); this picks the cached or uncached kernels (:func:`kernels_for`).
     """
-    kernels_for(data_cls).register_step(data_cls, step, rollout)
+    kernels_for(data_cls).register_step(data_cls, step, rollout, deterministic)
 
 
 def compiled_family_of(model: Any) -> CompiledFamily | None:
