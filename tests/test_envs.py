@@ -204,26 +204,34 @@ CLASSIC_IDS = [
 ]
 
 
-@pytest.mark.parametrize("env_id", CLASSIC_IDS)
-def test_a_family_that_says_its_step_is_deterministic_never_draws(env_id):
+def _deterministic_families() -> list:
+    """The built-in classic and grid families that set ``deterministic_step``, with their θ_0."""
+    found = []
+    for env_id in CLASSIC_IDS:
+        env = ns_pz.make_gym(env_id)
+        env.reset(seed=0)
+        if env.family.deterministic_step:
+            found.append((env.family, env.planning_model().theta))
+    return found
+
+
+def test_a_family_that_says_its_step_is_deterministic_never_draws():
     """deterministic_step: 300 random steps leave the generator as it was; a repeat is equal."""
-    env = ns_pz.make_gym(env_id)
-    env.reset(seed=0)
-    family, theta = env.family, env.planning_model().theta
-    if not family.deterministic_step:
-        pytest.skip(f"{type(family).__name__}'s step may draw")
-    rng = np.random.default_rng(3)
-    family.action_space.seed(4)
-    state = family.initial_state(np.random.default_rng(0))
-    before = rng.bit_generator.state
-    for _ in range(300):
-        action = family.action_space.sample()
-        if isinstance(family.action_space, gym.spaces.Discrete):
-            action = int(action)
-        outcome = family.step(state, action, theta, rng)
-        assert family.step(state, action, theta, np.random.default_rng(9)) == outcome
-        state = outcome[0] if not outcome[2] else family.initial_state(np.random.default_rng(1))
-    assert rng.bit_generator.state == before
+    families = _deterministic_families()
+    for family, theta in families:
+        rng = np.random.default_rng(3)
+        family.action_space.seed(4)
+        state = family.initial_state(np.random.default_rng(0))
+        before = rng.bit_generator.state
+        for _ in range(300):
+            action = family.action_space.sample()
+            if isinstance(family.action_space, gym.spaces.Discrete):
+                action = int(action)
+            outcome = family.step(state, action, theta, rng)
+            assert family.step(state, action, theta, np.random.default_rng(9)) == outcome
+            state = outcome[0] if not outcome[2] else family.initial_state(np.random.default_rng(1))
+        assert rng.bit_generator.state == before, type(family).__name__
+    assert len(families) == 4
 
 
 def test_the_families_whose_steps_draw_do_not_say_they_are_deterministic():
