@@ -408,6 +408,40 @@ def test_the_compiled_forward_pass_is_numpys(trunk, policy, value):
         np.testing.assert_allclose(v, expected_v, rtol=1e-12, atol=1e-14)
 
 
+def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit():
+    """Each dense output is ``((0 + x_0 w_0) + x_1 w_1) + ...`` then the bias, exactly.
+
+    So skipping zero inputs (ReLU'd units, a state component of exactly 0) changes no bit: the
+    value head's output equals this order-exact numpy reference, with and without zeros.
+    """
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning._puct_kernels import network
+
+    function = _random_cartpole_function(5, (128, 128), (), (7,))
+    weights, layout, parts = function.packed()
+
+    def dense(x, row, relu):
+        at, inputs, outputs, bias = row
+        matrix = weights[at : at + inputs * outputs].reshape(inputs, outputs)
+        acc = np.zeros(outputs)
+        for i in range(inputs):
+            acc = acc + x[i] * matrix[i]
+        out = acc + weights[bias : bias + outputs]
+        return np.where(out > 0.0, out, 0.0) if relu else out
+
+    rng = np.random.default_rng(1)
+    states = rng.normal(size=(30, 4)) * rng.choice([0.0, 1.0], size=(30, 4))
+    zeros = 0
+    for state in states:
+        x = np.float64(np.float32(state))
+        h = dense(dense(x, layout[0], True), layout[1], True)
+        zeros += int(np.sum(h == 0.0))
+        expected = dense(dense(h, layout[3], True), layout[4], False)[0]
+        _, value = network(weights, layout, parts, x)
+        assert value == expected
+    assert zeros > 30 * 20  # many switched-off units were skipped
+
+
 def test_compiled_puct_refuses_what_it_cannot_run():
     """backend='compiled' names why: a plain function on CartPole, another observation."""
     pytest.importorskip("numba")

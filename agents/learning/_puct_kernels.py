@@ -186,7 +186,10 @@ def _dense(weights, row, x, out, relu):  # type: ignore[no-untyped-def]  # pragm
     sums its products in input order, one accumulator each (no reassociation, so the result is
     the same however the compiler vectorises the loop). The accumulators are a fresh array,
     which the compiler knows aliases nothing, so it does vectorise (1.5x faster than summing
-    into ``out``).
+    into ``out``). An input of 0 (a unit the ReLU switched off: about half of a trunk's) is
+    skipped: its products are ±0 for finite weights, and adding ±0 to an accumulator that
+    starts at +0 never changes it, so every sum is the full loop's, bit for bit (a CartPole
+    PUCT decision of ``bench_search.py``: at best 2.9 ms without the skip, 2.3 ms with it).
     """
     at = row[0]
     inputs = row[1]
@@ -195,6 +198,8 @@ def _dense(weights, row, x, out, relu):  # type: ignore[no-untyped-def]  # pragm
     acc = np.zeros(outputs)
     for i in range(inputs):
         xi = x[i]
+        if xi == 0.0:
+            continue
         matrix_row = weights[at + i * outputs : at + (i + 1) * outputs]
         for j in range(outputs):
             acc[j] += xi * matrix_row[j]
@@ -341,7 +346,6 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
                 child = first_child[node, action]
                 last = -1
                 reward = edge_reward[node, action]
-                done = terminal[child]
             else:
                 reward, done = family_step(data, states[node], sampled, action, model_rng)
             simulated += 1
