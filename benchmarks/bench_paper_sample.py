@@ -9,15 +9,16 @@ cell's measured seconds by ``episodes / seeds``. The 95 % interval resamples the
 agent × cell (bootstrap), so it says how far the sample's own spread lets the total move; it
 cannot see costs that none of the sampled seeds met. A worker's first trial of an agent also
 pays that agent's first use (imports, loading compiled code), which the scaling counts
-``episodes / seeds`` times: in the 5-seed sample of the paper, every first seed's excess over
-the median of its cell's other seeds, scaled, summed to 0.1 h, leaving out DDQN-WN's two
-continuous CartPole cells, whose first seeds were long episodes (2,500 and 713 steps).
+``episodes / seeds`` times: in two 5-seed samples of the paper, every first seed's excess over
+the median of its cell's other seeds, scaled, summed to 0.13 and 0.18 h (a bound on that bias),
+leaving out DDQN-WN's two continuous CartPole cells, whose first seeds were long episodes (2,500
+and 713 steps).
 
 Seconds are each trial's wall time in its worker (one thread each): CPU seconds when the
 workers have a core each (``--workers`` at most the number of idle cores). Training is not in
 the totals (``ns-pz bench estimate`` gives it; the runner prints each network's time).
 
-Run (a throwaway cache trains the networks anew; 5 seeds of the full paper took 11 min 38 s on
+Run (a throwaway cache trains the networks anew; 5 seeds of the full paper took 11 min 47 s on
 two cores, training included)::
 
     NS_PZ_CACHE_DIR=/tmp/cache python benchmarks/bench_paper_sample.py --seeds 5 --workers 2 \
