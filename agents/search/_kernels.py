@@ -257,12 +257,11 @@ register_step(TabularData, tabular_step, tabular_rollout)
 
 
 @numba.njit(cache=CACHE, inline="always")
-def cartpole_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """The same floating-point operations, in the same order, as ``CartPoleFamily.step``."""
-    x = state[0]
-    x_dot = state[1]
-    angle = state[2]
-    angle_dot = state[3]
+def _cartpole_motion(data, x, x_dot, angle, angle_dot, action):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """One step of CartPole's motion: ``(x, x_dot, angle, angle_dot, terminal)`` after it.
+
+    The same floating-point operations, in the same order, as ``CartPoleFamily.step``.
+    """
     force = data.force_mag if action == 1 else -data.force_mag
     cos = math.cos(angle)
     sin = math.sin(angle)
@@ -284,68 +283,40 @@ def cartpole_step(data, state, out, action, rng):  # type: ignore[no-untyped-def
         x = x + tau * x_dot
         angle_dot = angle_dot + tau * angle_acc
         angle = angle + tau * angle_dot
-    out[0] = x
-    out[1] = x_dot
-    out[2] = angle
-    out[3] = angle_dot
     terminal = (
         x < -data.x_threshold
         or x > data.x_threshold
         or angle < -data.theta_threshold
         or angle > data.theta_threshold
     )
+    return x, x_dot, angle, angle_dot, terminal
+
+
+@numba.njit(cache=CACHE, inline="always")
+def cartpole_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """:func:`_cartpole_motion` over state vectors; reward 1 every step (draws nothing)."""
+    out[0], out[1], out[2], out[3], terminal = _cartpole_motion(
+        data, state[0], state[1], state[2], state[3], action
+    )
     return 1.0, terminal
 
 
 @numba.njit(cache=CACHE)
 def cartpole_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
-    """:func:`generic_rollout` with :func:`cartpole_step` written into the loop.
-
-    The state stays in four locals; the floating-point operations are the step's, in its order.
-    """
-    x = state[0]
-    x_dot = state[1]
-    angle = state[2]
-    angle_dot = state[3]
-    force_mag = data.force_mag
-    gravity = data.gravity
-    masspole = data.masspole
-    length = data.length
-    total_mass = masspole + data.masscart
-    polemass_length = masspole * length
-    tau = data.tau
-    euler = data.euler
-    x_threshold = data.x_threshold
-    theta_threshold = data.theta_threshold
+    """:func:`generic_rollout` for CartPole with the state in four locals, not a vector."""
+    x, x_dot, angle, angle_dot = state[0], state[1], state[2], state[3]
     total = 0.0
     discount = 1.0
     steps = 0
     while steps < depth:
         action = _uniform_index(search_rng, num_actions)
-        force = force_mag if action == 1 else -force_mag
-        cos = math.cos(angle)
-        sin = math.sin(angle)
-        temp = (force + polemass_length * (angle_dot * angle_dot) * sin) / total_mass
-        angle_acc = (gravity * sin - cos * temp) / (
-            length * (4.0 / 3.0 - masspole * (cos * cos) / total_mass)
+        x, x_dot, angle, angle_dot, terminal = _cartpole_motion(
+            data, x, x_dot, angle, angle_dot, action
         )
-        x_acc = temp - polemass_length * angle_acc * cos / total_mass
-        if euler:
-            x = x + tau * x_dot
-            x_dot = x_dot + tau * x_acc
-            angle = angle + tau * angle_dot
-            angle_dot = angle_dot + tau * angle_acc
-        else:
-            x_dot = x_dot + tau * x_acc
-            x = x + tau * x_dot
-            angle_dot = angle_dot + tau * angle_acc
-            angle = angle + tau * angle_dot
         total += discount * 1.0  # CartPole's reward
         discount *= gamma
         steps += 1
-        if x < -x_threshold or x > x_threshold:
-            break
-        if angle < -theta_threshold or angle > theta_threshold:
+        if terminal:
             break
     return total, steps
 
