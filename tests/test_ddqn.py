@@ -7,6 +7,7 @@ import pytest
 from ns_pz.agents import evaluate
 from ns_pz.agents.baselines import RandomAgent
 from ns_pz.agents.catalog import agent_entry
+from ns_pz.agents.learning import ddqn
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.ddqn import (
     DoubleDQN,
@@ -27,6 +28,16 @@ FROZEN_LAKE = {"slip": [0.7, 0.15, 0.15]}
 @pytest.fixture(autouse=True)
 def _tmp_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path))
+
+
+@pytest.fixture(params=["compiled", "numpy"])
+def step_path(request, monkeypatch):
+    """Run the test with the compiled elementwise kernels and again with NumPy alone."""
+    if request.param == "compiled":
+        pytest.importorskip("numba")
+    else:
+        monkeypatch.setattr(ddqn, "compiled_step", lambda: None)
+    return request.param
 
 
 def test_double_target_differs_from_vanilla_exactly_where_the_argmaxes_differ():
@@ -74,7 +85,7 @@ def _tiny_batch():
     return buffer.sample(2, np.random.default_rng(0)), buffer
 
 
-def test_the_loss_is_the_double_dqn_loss_on_a_hand_computed_batch():
+def test_the_loss_is_the_double_dqn_loss_on_a_hand_computed_batch(step_path):
     """Online picks the next action (1, value 6), the target net values it (2): y = 1 + 0.5 * 2.
 
     Q_online(0, 1) = 0, so the non-terminal transition's squared error is (0 - 2)^2 = 4; the
@@ -94,7 +105,7 @@ def test_the_loss_is_the_double_dqn_loss_on_a_hand_computed_batch():
     assert learner.loss_and_gradient(batch) == pytest.approx(2.5)
 
 
-def test_a_gradient_step_polyak_averages_a_separate_target():
+def test_a_gradient_step_polyak_averages_a_separate_target(step_path):
     """After one step the target is τ·online_new + (1-τ)·target_old, not the online net."""
     learner = _table_learner(
         [[0.0, 3.0, 0.0], [0.0, 0.0, 0.0], [1.0, 6.0, 4.0]],
@@ -109,7 +120,7 @@ def test_a_gradient_step_polyak_averages_a_separate_target():
 
 
 @pytest.mark.parametrize("seed", [0, 1])
-def test_gradient_steps_match_torch_autograd_and_adam(seed):
+def test_gradient_steps_match_torch_autograd_and_adam(seed, step_path):
     """Loss, gradient, Adam step (with weight decay) and Polyak update equal torch's in float64.
 
     Three steps of a two-hidden-layer net on a random batch, against ``nn.Linear`` layers
@@ -304,7 +315,7 @@ def test_bad_args_are_refused(field, value, match):
         DDQNArgs(**{field: value})
 
 
-def test_a_gradient_step_flushes_subnormal_weights_moments_and_target():
+def test_a_gradient_step_flushes_subnormal_weights_moments_and_target(step_path):
     """The weights of a state no batch holds decay into float64's subnormal range; flushed to 0.
 
     State 2 is only ever a next state here, so its first-layer weights get weight decay alone:
@@ -326,3 +337,88 @@ def test_a_gradient_step_flushes_subnormal_weights_moments_and_target():
     others[row] = False
     np.testing.assert_array_equal(learner.params[others], plain.params[others])
     np.testing.assert_array_equal(learner.target[others], plain.target[others])
+
+
+def _random_batch(rng, size, inputs, num_actions, one_hot):
+    if one_hot:
+        eye = np.eye(inputs, dtype=np.float32)
+        x, next_x = eye[rng.integers(inputs, size=size)], eye[rng.integers(inputs, size=size)]
+    else:
+        x = rng.normal(size=(size, inputs)).astype(np.float32)
+        next_x = rng.normal(size=(size, inputs)).astype(np.float32)
+    return Batch(
+        x,
+        rng.integers(num_actions, size=size),
+        rng.normal(size=size).astype(np.float32),
+        next_x,
+        (rng.random(size) < 0.2).astype(np.float32),
+    )
+
+
+@pytest.mark.parametrize(
+    ("inputs", "hidden", "one_hot", "weight_decay"),
+    [(6, (5,), True, 1e-2), (4, (7, 6), False, 0.0), (3, (4, 4, 4), False, 1e-4)],
+)
+def test_compiled_and_numpy_gradient_steps_agree_bit_for_bit(inputs, hidden, one_hot, weight_decay):
+    """Where numba is installed the elementwise parts run compiled: the same bits, step by step.
+
+    Sixty steps on random batches (ties among the next Q-values included: the output layer
+    starts with equal columns), compared exactly: losses, gradients, weights, Adam's moments and
+    the target network.
+    """
+    pytest.importorskip("numba")
+    args = DDQNArgs(hidden=hidden, gamma=0.9, tau=0.05, weight_decay=weight_decay)
+    rng = np.random.default_rng(len(hidden))
+    batches = [_random_batch(rng, 9, inputs, 3, one_hot) for _ in range(60)]
+    runs = []
+    for path in ("compiled", "numpy"):
+        with pytest.MonkeyPatch.context() as patch:
+            if path == "numpy":
+                patch.setattr(ddqn, "compiled_step", lambda: None)
+            learner = new_learner(inputs, 3, args, 5)
+            w, _ = learner.layers[-1]
+            w[:, 1] = w[:, 0]  # actions 0 and 1 tie until a step tells them apart
+            learner.sync_target()
+            losses, grads = [], []
+            for batch in batches:
+                losses.append(learner.gradient_step(batch))
+                grads.append(learner.grad.copy())
+            runs.append((losses, grads, learner))
+    (losses, grads, compiled), (np_losses, np_grads, plain) = runs
+    assert losses == np_losses
+    np.testing.assert_array_equal(np.array(grads), np.array(np_grads))
+    for name in ("params", "m", "v", "target"):
+        np.testing.assert_array_equal(getattr(compiled, name), getattr(plain, name), err_msg=name)
+    assert compiled.steps == plain.steps == 60
+
+
+def test_the_compiled_target_picks_the_first_best_and_a_nan_as_argmax_does():
+    """``td_delta``'s choice of the next action is ``argmax``'s, NaN and ties included."""
+    kernels = ddqn.compiled_step()
+    if kernels is None:
+        pytest.skip("numba is not installed")
+    online = np.array([[1.0, 3.0, 3.0], [2.0, np.nan, 5.0], [np.nan, 9.0, 1.0], [-1.0, -1.0, -2.0]])
+    target = np.arange(12.0).reshape(4, 3)
+    rewards, terminated = np.array([0.5, 0.0, 1.0, 2.0]), np.array([0.0, 0.0, 0.0, 1.0])
+    q = np.array([[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 3.0], [4.0, 0.0, 0.0]])
+    actions = np.array([0, 1, 2, 0])
+    delta, squares = np.empty_like(q), np.empty(4)
+    kernels.td_delta(q, online, target, actions, rewards, terminated, 0.9, delta, squares)
+    y = double_dqn_target(online, target, rewards, terminated, 0.9)
+    error = q[np.arange(4), actions] - y
+    np.testing.assert_array_equal(squares, error * error)
+    expected = np.zeros_like(q)
+    expected[np.arange(4), actions] = 2.0 * error / 4
+    np.testing.assert_array_equal(delta, expected)
+
+
+def test_training_is_the_same_with_and_without_numba():
+    """A short training run gives the same network bit for bit on both paths."""
+    pytest.importorskip("numba")
+    env = ns_pz.make_gym("ns_pz/FrozenLake-v0", params=FROZEN_LAKE)
+    args = DDQNArgs(total_steps=1500, learning_starts=100).for_family(env.family)
+    compiled, _ = train_ddqn(training_env(env, args.max_episode_steps), args, 3)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ddqn, "compiled_step", lambda: None)
+        plain, _ = train_ddqn(training_env(env, args.max_episode_steps), args, 3)
+    assert all(np.array_equal(compiled[k], plain[k]) for k in compiled)

@@ -19,19 +19,31 @@ so the Polyak update is two vector operations (tested against torch's autograd a
 The same learner fine-tunes DDQN-WN's network when notified, so neither needs torch. Initial
 weights follow torch's ``nn.Linear`` default, uniform in ``±1/sqrt(fan_in)``, drawn from their
 own stream of the training seed.
+
+Where numba is installed, a gradient step's elementwise parts (the target and the output's
+gradient, Adam, the Polyak update, the subnormal flushes) run as two compiled loops
+(:mod:`._mlp_kernels`) instead of about thirty NumPy calls; the products stay in NumPy, so the
+network is the same bit for bit either way (tested). The full FrozenLake network (200k steps)
+trained in 8.1–8.7 s against 11.9–12.8 s in NumPy alone on one core of the development machine.
 """
 
 from __future__ import annotations
 
+import functools
+import importlib
+import math
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict
+from types import ModuleType
 from typing import Any
 
 import numpy as np
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.features import NumpyMLP, feature_size, features
 from ns_pz.agents.learning.mlp import (
+    ADAM_BETAS,
+    ADAM_EPS,
     MLPLearner,
     export_layers,
     flush_subnormals,
@@ -40,6 +52,7 @@ from ns_pz.agents.learning.mlp import (
 )
 from ns_pz.agents.learning.replay import Batch, ReplayBuffer
 from ns_pz.agents.learning.seeding import training_seeds
+from ns_pz.agents.search.compiled import numba_available
 
 from ns_pz.views import NSGymEnv
 
@@ -136,40 +149,89 @@ class DoubleDQN(MLPLearner):
     def loss_and_gradient(self, batch: Batch) -> float:
         """The TD loss of ``batch`` (MSE to the Double-DQN target); its gradient in ``grad``."""
         next_features = self.as_input(batch.next_features)
-        y = double_dqn_target(
-            self.q(next_features),
-            self.q(next_features, target=True),
-            batch.rewards.astype(np.float64),
-            batch.terminated.astype(np.float64),
-            self.args.gamma,
-        )
+        next_online = self.q(next_features)
+        next_target = self.q(next_features, target=True)
         hidden = self.forward(batch.features)
-        rows = np.arange(len(y))
-        error = hidden[-1][rows, batch.actions] - y
-        delta = np.zeros_like(hidden[-1])
-        delta[rows, batch.actions] = 2.0 * error / len(y)
-        self.backward(hidden, delta)
-        return float(np.mean(error * error))
+        kernels = compiled_step()
+        if kernels is None:
+            y = double_dqn_target(
+                next_online,
+                next_target,
+                batch.rewards.astype(np.float64),
+                batch.terminated.astype(np.float64),
+                self.args.gamma,
+            )
+            rows = np.arange(len(y))
+            error = hidden[-1][rows, batch.actions] - y
+            delta = np.zeros_like(hidden[-1])
+            delta[rows, batch.actions] = 2.0 * error / len(y)
+            self.backward(hidden, delta)
+            return float(np.mean(error * error))
+        squares = np.empty(len(hidden[-1]))
+        delta = np.empty_like(hidden[-1])
+        kernels.td_delta(
+            hidden[-1],
+            next_online,
+            next_target,
+            batch.actions,
+            batch.rewards,
+            batch.terminated,
+            self.args.gamma,
+            delta,
+            squares,
+        )
+        self.backward(hidden, delta, flushed=True)
+        # np.mean's own sum and division: the loss has the NumPy path's bits
+        return float(np.add.reduce(squares)) / len(squares)
 
     def gradient_step(self, batch: Batch) -> float:
         """One Adam step on the TD loss of ``batch``, then the Polyak update of the target.
 
         The target moves ``target <- τ online + (1 - τ) target`` (subnormals flushed, as the
-        online network's are).
+        online network's are). Where numba is installed the elementwise parts run compiled
+        (:mod:`._mlp_kernels`), with the same bits.
 
         Returns:
             The loss before the step.
         """
         loss = self.loss_and_gradient(batch)
-        self.adam_step()
-        self.target *= 1.0 - self.args.tau
-        self.target += self.args.tau * self.params
-        flush_subnormals(self.target)
+        kernels = compiled_step()
+        if kernels is None:
+            self.adam_step()
+            self.target *= 1.0 - self.args.tau
+            self.target += self.args.tau * self.params
+            flush_subnormals(self.target)
+            return loss
+        beta1, beta2 = ADAM_BETAS
+        self.steps += 1
+        kernels.adam_polyak(
+            self.params,
+            self.grad,
+            self.m,
+            self.v,
+            self.target,
+            self.learning_rate,
+            self.weight_decay,
+            beta1,
+            beta2,
+            ADAM_EPS,
+            1.0 - beta1**self.steps,
+            math.sqrt(1.0 - beta2**self.steps),
+            self.args.tau,
+        )
         return loss
 
     def export(self, prefix: str) -> dict[str, np.ndarray]:
         """The online network as ``{prefix.i.weight, prefix.i.bias}`` (torch's layout)."""
         return export_layers(self.layers, prefix)
+
+
+@functools.cache
+def compiled_step() -> ModuleType | None:
+    """The compiled elementwise parts of a gradient step (:mod:`._mlp_kernels`); None: no numba."""
+    if not numba_available():
+        return None
+    return importlib.import_module("ns_pz.agents.learning._mlp_kernels")
 
 
 def new_learner(inputs: int, num_actions: int, args: DDQNArgs, seed: int) -> DoubleDQN:

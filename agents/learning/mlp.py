@@ -101,7 +101,10 @@ def flush_subnormals(values: np.ndarray) -> None:
     nothing beside Adam's ε: flushed, the full FrozenLake Double DQN trained the same bits in
     every normal weight (only 330 subnormal ones became 0).
     """
-    np.copyto(values, 0.0, where=np.abs(values) < np.finfo(values.dtype).tiny)
+    np.copyto(values, 0.0, where=np.abs(values) < _TINY[values.dtype.char])
+
+
+_TINY = {np.dtype(t).char: np.finfo(t).tiny for t in (np.float16, np.float32, np.float64)}
 
 
 class MLPLearner:
@@ -190,7 +193,7 @@ class MLPLearner:
             hidden.append(z)
         return hidden
 
-    def backward(self, hidden: list[np.ndarray], delta: np.ndarray) -> None:
+    def backward(self, hidden: list[np.ndarray], delta: np.ndarray, flushed: bool = False) -> None:
         """The loss's gradient into :attr:`grad`, given ``delta``: its gradient at the output.
 
         Args:
@@ -198,8 +201,10 @@ class MLPLearner:
             delta: ``[batch, outputs]`` ∂loss/∂output (the batch mean already taken); its
                 subnormal entries are flushed first (a softmax's probability of an action far
                 below the others underflows into the subnormal range).
+            flushed: ``delta`` holds no subnormal entry already (the flush is skipped).
         """
-        flush_subnormals(delta)
+        if not flushed:
+            flush_subnormals(delta)
         for i in range(len(self.layers) - 1, -1, -1):
             w, _ = self.layers[i]
             gw, gb = self.grad_layers[i]
@@ -207,8 +212,8 @@ class MLPLearner:
             delta.sum(axis=0, out=gb)
             if i:
                 active = hidden[i] > 0.0  # where the ReLU passed its input (and its gradient)
-                live = active.any(axis=0)
-                if self.dtype != np.float32 or live.all():
+                live = active.any(axis=0) if self.dtype == np.float32 else None
+                if live is None or live.all():
                     delta = delta @ w.T
                 else:
                     # float32: a unit no row of the batch activates passes no gradient back, so
