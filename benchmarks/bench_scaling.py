@@ -8,12 +8,14 @@ CPU time is the run's and its worker processes' (user + system). Run from the re
     python benchmarks/bench_scaling.py --size full --workers 2  # one figure
     python benchmarks/bench_scaling.py --project 16             # 1 and 2, then 16 projected
 
-``--project N`` projects ``N`` workers from the runs on 1 and 2 workers by playing the runner's
-schedule on paper (:func:`ns_pz.experiments.projection.project`): the networks train first, one
-per worker, for the time the 1-worker run's log gives them; each trial takes the time its row
-of the 1-worker run recorded and starts on the first free worker once its networks are ready;
-every worker first pays the second worker's extra CPU (its start-up and every first use it
-repeats). A run on one idle core takes its CPU time.
+``--project N`` projects ``N`` workers from the 1-worker run by playing the runner's schedule on
+paper (:func:`ns_pz.experiments.projection.project`): the networks train first, one per worker,
+for the time the 1-worker run's log gives them; each trial takes the time its row of the
+1-worker run recorded and starts on the first free worker once its networks are ready; every
+worker first pays a start-up measured apart (:func:`worker_startup`: a fresh process's imports
+and its first use of every agent in every cell). A run on one idle core takes its CPU time.
+The second worker's extra CPU measures the same start-up too, but within the noise of two whole
+runs (this machine gave 8.6 s once and 0 s another time); it is printed beside it.
 
 The cache used is ``--cache`` (default: a folder under the system's temporary folder, kept
 between calls so the compiled kernels are built once); the user's cache is never touched.
@@ -23,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import os
 import re
 import resource
@@ -111,18 +114,66 @@ def main() -> None:
             f"CPU {result['cpu']:.1f} s, load {result['load'][0]:.2f} -> {result['load'][1]:.2f}",
             flush=True,
         )
-    if args.project is not None and {1, 2} <= set(results):
+    if args.project is not None and 1 in results:
         spec = load_spec(args.spec, args.size)
-        print(projected(spec, results[1], results[2], args.project))
+        startup = worker_startup(args.spec, args.size, cache)
+        if 2 in results:
+            extra = results[2]["cpu"] - results[1]["cpu"]
+            print(f"the second worker's extra CPU: {extra:.1f} s")
+        print(projected(spec, results[1], startup, args.project))
 
 
-def projected(spec: ExperimentSpec, one: dict, two: dict, workers: int) -> str:
-    """``workers`` workers projected from the runs on 1 and 2 (see the module docstring).
+_STARTUP_PROBE = """
+import json, sys, time
+from ns_pz.experiments.spec import load_spec
+from ns_pz.experiments.trials import expand
+from ns_pz.experiments.work import run_batch
+spec = load_spec(sys.argv[1], sys.argv[2])
+firsts = {}
+for trial in expand(spec):
+    firsts.setdefault((trial.cell, trial.agent.label), trial)
+trials = list(firsts.values())
+imported = time.process_time()
+run_batch(spec, trials)
+cold = time.process_time()
+run_batch(spec, trials)
+warm = time.process_time()
+print(json.dumps({"imported": imported, "cold": cold - imported, "warm": warm - cold}))
+"""
+
+
+def worker_startup(spec: str, size: str, cache: Path) -> dict:
+    """What a fresh worker pays before its trials cost what the 1-worker run's rows say.
+
+    A new process (the networks already in ``cache``) imports the runner and plays the first
+    seed of every agent × cell twice: the start-up is its CPU time until the trials began (the
+    interpreter and the imports) plus the first round's excess over the second (loading
+    networks and compiled kernels, building each cell's models). A worker of a big run meets
+    only some of those firsts, so this overstates its start-up a little.
+
+    Returns:
+        ``{"seconds", "imports", "first_uses", "trials"}``.
+    """
+    env = {**os.environ, "NS_PZ_CACHE_DIR": str(cache)}
+    argv = [sys.executable, "-c", _STARTUP_PROBE, spec, size]
+    done = subprocess.run(argv, env=env, capture_output=True, text=True, check=True)
+    probe = json.loads(done.stdout.strip().splitlines()[-1])
+    first_uses = max(0.0, probe["cold"] - probe["warm"])
+    trials = len({(t.cell, t.agent.label) for t in expand(load_spec(spec, size))})
+    return {
+        "seconds": probe["imported"] + first_uses,
+        "imports": probe["imported"],
+        "first_uses": first_uses,
+        "trials": trials,
+    }
+
+
+def projected(spec: ExperimentSpec, one: dict, startup: dict, workers: int) -> str:
+    """``workers`` workers projected from the 1-worker run and :func:`worker_startup`.
 
     Raises:
         ValueError: The 1-worker run's log lacks a network's ``trained ... in X s`` line.
     """
-    startup = max(0.0, two["cpu"] - one["cpu"])
     trained = dict(re.findall(r"^trained (.*) in ([0-9.]+) s$", one["log"], re.M))
     keys: dict[str, set[str]] = defaultdict(set)  # agent label -> its networks' keys
     networks = {}
@@ -140,12 +191,13 @@ def projected(spec: ExperimentSpec, one: dict, two: dict, workers: int) -> str:
         GroupTime(sum(seconds) / len(seconds), len(seconds), frozenset(keys[agent]))
         for (_, _, agent), seconds in times.items()
     ]
-    plan = project(sorted(networks.items()), groups, workers, startup)
+    plan = project(sorted(networks.items()), groups, workers, startup["seconds"])
     return (
         f"projected on {workers} workers (the runner's schedule; trial and training times of "
-        f"the 1-worker run, {startup:.1f} s of start-up and first uses per worker): "
-        f"{plan.text()} ({plan.wall:.1f} s): {one['cpu'] / plan.wall:.1f}x one idle core "
-        f"({one['cpu']:.1f} s)"
+        f"the 1-worker run; {startup['seconds']:.1f} s of start-up per worker: "
+        f"{startup['imports']:.1f} s of imports, {startup['first_uses']:.1f} s of first uses over "
+        f"{startup['trials']} agent x cell trials): {plan.text()} ({plan.wall:.1f} s): "
+        f"{one['cpu'] / plan.wall:.1f}x one idle core ({one['cpu']:.1f} s)"
     )
 
 

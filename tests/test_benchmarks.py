@@ -187,13 +187,29 @@ def test_scaling_projection_plays_the_runners_schedule():
         for t in trials
     ]
     one = {"cpu": 20.0 + 0.01 * len(rows), "wall": 30.0, "log": log, "rows": rows}
-    two = {"cpu": one["cpu"] + 1.0}
+    startup = {"seconds": 1.0, "imports": 0.75, "first_uses": 0.25, "trials": 33}
     waiting = {label for label, _ in needs}
     late = sum(t.agent.label in waiting for t in trials) * 0.01
-    text = module.projected(spec, one, two, 16)
+    text = module.projected(spec, one, startup, 16)
     wall = float(text.rsplit("(", 2)[1].split(" s)")[0])
+    assert "1.0 s of start-up per worker: 0.8 s of imports, 0.2 s of first uses" in text
     assert "training 2 network(s), 20 s of work, all ready after 11 s" in text
     assert 11.0 + late / 16 - 0.05 <= wall <= 11.0 + late / 14 + 0.05  # printed to 0.1 s
+
+
+def test_scaling_measures_a_workers_start_up_in_a_fresh_process(tmp_path):
+    """The probe plays the first seed of each agent × cell in a new process: imports counted."""
+    module = _bench_module("bench_scaling")
+    path = tmp_path / "tiny.toml"
+    path.write_text(tiny_spec(RANDOM))
+    from ns_pz.experiments import load_spec
+    from ns_pz.experiments.trials import expand
+
+    firsts = {(t.cell, t.agent.label) for t in expand(load_spec(path, "quick"))}
+    startup = module.worker_startup(str(path), "quick", tmp_path)
+    assert startup["trials"] == len(firsts) > 1
+    assert startup["imports"] > 0.05 and startup["first_uses"] >= 0.0
+    assert startup["seconds"] == startup["imports"] + startup["first_uses"]
 
 
 def test_paper_sample_scales_each_cell_and_bounds_it_by_resampling_seeds(tmp_path):
