@@ -27,7 +27,7 @@ import signal
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ns_pz import __version__
 from ns_pz.envs.registry import registered_envs, spec
@@ -161,20 +161,22 @@ def _tables(run_dir: Path, fmt: str, width: int | None = None) -> str:
     store = ResultStore(run_dir)
     record = store.spec_record()
     title = f"{record['spec']['title']} [{record['name']}, {record['spec']['size']}]"
-    _report_unreadable(store)
     spec_record = record["spec"]
-    return table(store.rows(), title, fmt, optimum_for(spec_record), spec_record, width=width)
+    rows = _readable_rows(store)
+    return table(rows, title, fmt, optimum_for(spec_record), spec_record, width=width)
 
 
-def _report_unreadable(store: ResultStore) -> None:
-    """Name, on stderr, the files of ``trials/`` a report leaves out, and why."""
-    for path, reason in store.unreadable():
+def _readable_rows(store: ResultStore) -> list[dict[str, Any]]:
+    """The stored rows; the files of ``trials/`` left out named on stderr, with why."""
+    rows, unreadable, strays = store.scan()
+    for path, reason in unreadable:
         print(
             f"ns-pz: skipped {path}: unreadable ({reason}); `bench run --resume` re-runs it",
             file=sys.stderr,
         )
-    for path, reason in store.strays():
+    for path, reason in strays:
         print(f"ns-pz: skipped {path}: {reason}", file=sys.stderr)
+    return rows
 
 
 def _each_run(root: Path, report_fn: Callable[[Path], None]) -> int:
@@ -219,14 +221,14 @@ def bench_plot(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     def plot_run(run_dir: Path) -> None:
         store = ResultStore(run_dir)
         record = store.spec_record()
-        _report_unreadable(store)
+        rows = _readable_rows(store)
         spec_record = record["spec"]
         optimum = optimum_for(spec_record)
         target = run_dir / "plots"
         if args.out is not None:  # one folder per run inside it when there are several
             target = Path(args.out) / run_dir.name if len(run_dirs) > 1 else Path(args.out)
         for path in plot(
-            store.rows(),
+            rows,
             spec_record["title"],
             target,
             spec_record,

@@ -237,10 +237,11 @@ def test_a_full_disk_names_the_file_and_leaves_no_temporary_file(
     store.prepare(experiment, resume=False)
     row = {"trial": "00-x-s0", "status": "ok", "spec_hash": "h"}
 
-    def full(fd: int) -> None:
+    def full(*args: object) -> None:
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(store_module.os, "fsync", full)
+    monkeypatch.setattr(store_module.os, "replace", full)  # a trial's row is renamed, not synced
     target = tmp_path / "out" / "trials" / "00-x-s0.json"
     with pytest.raises(OSError, match=f"cannot write {target}: No space left on device"):
         store.write(row)
@@ -327,3 +328,20 @@ def test_a_second_run_on_a_directory_in_use_is_told_so_not_to_pass_resume(
         holder.wait()
     assert main([*command, "--workers", "1"], print) == 2  # free now: results there, no resume
     assert "pass --resume" in capsys.readouterr().err
+
+
+def test_a_trials_row_is_renamed_into_place_without_waiting_for_the_disk(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """No fsync per row (about 1 ms each, more than a trial on 16 workers); still read back."""
+    import ns_pz.experiments.store as store_module
+
+    experiment = load_spec(write(tmp_path), "quick")
+    store = ResultStore(tmp_path / "out")
+    store.prepare(experiment, resume=False)
+    synced: list[int] = []
+    monkeypatch.setattr(store_module.os, "fsync", synced.append)
+    run_spec(experiment, tmp_path / "out", LocalBackend(1), resume=True)
+    assert len(store.rows()) == 16
+    assert len(synced) == 4  # spec.json, hyperparameters.json, the pack, results.csv; no row
+    assert not list((tmp_path / "out").rglob("*.tmp"))

@@ -67,14 +67,15 @@ def run_spec(
     with locked(store.root):
         store.prepare(spec, resume)
         trials = expand(spec)
-        finished = store.finished(spec.digest())
+        rows, unreadable, strays = store.scan()
+        finished = store.finished(spec.digest(), rows)
         todo = [trial for trial in trials if trial.key not in finished]
         training = plan_training(spec, todo, shown=progress is not None)
         if progress is not None:
             _announce(spec, training, progress)
-            for path, reason in store.unreadable():
+            for path, reason in unreadable:
                 progress.write(f"{path} is unreadable ({reason}); its trial runs again\n")
-            for path, reason in store.strays():
+            for path, reason in strays:
                 progress.write(f"{path} is ignored: {reason}\n")
         bar = None
         if progress is not None:
