@@ -195,6 +195,11 @@ def test_scaling_projection_plays_the_runners_schedule():
     assert "1.0 s of start-up per worker: 0.8 s of imports, 0.2 s of first uses" in text
     assert "training 2 network(s), 20 s of work, all ready after 11 s" in text
     assert 11.0 + late / 16 - 0.05 <= wall <= 11.0 + late / 14 + 0.05  # printed to 0.1 s
+    assert "the runner's own process used 3.0 CPU-s, less" in module.projected(
+        spec, {**one, "runner_cpu": 3.0}, startup, 16
+    )
+    slow = module.projected(spec, {**one, "runner_cpu": 60.0}, startup, 16)
+    assert "the runner's own process, 60.0 CPU-s, bounds it (60.0 s)" in slow
 
 
 def test_scaling_measures_a_workers_start_up_in_a_fresh_process(tmp_path):
