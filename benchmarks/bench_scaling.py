@@ -168,7 +168,8 @@ def worker_startup(spec: str, size: str, cache: Path) -> dict:
     seed of every agent × cell twice: the start-up is its CPU time until the trials began (the
     interpreter and the imports) plus the first round's excess over the second (loading
     networks and compiled kernels, building each cell's models). A worker of a big run meets
-    only some of those firsts, so this overstates its start-up a little.
+    only some of those firsts, so this overstates its start-up a little. (``bench estimate``
+    charges the imports alone: :func:`ns_pz.experiments.estimate.worker_startup`.)
 
     Returns:
         ``{"seconds", "imports", "first_uses", "trials"}``.
