@@ -14,9 +14,13 @@ for the time the 1-worker run's log gives them; each trial takes the time its ro
 1-worker run recorded and starts on the first free worker once its networks are ready; every
 worker first pays a start-up measured apart (:func:`worker_startup`: a fresh process's imports
 and its first use of every agent in every cell). A run on one idle core takes its CPU time.
-The runner's own process (handing out trials, writing every row, the tables at the end) works
-beside the workers on a core of its own: its CPU time in the 1-worker run bounds the projection
-from below.
+The runner works alone before the workers get their first trial (imports, loading and checking
+the spec) and after the last row (packing, the CSV, the tables): that time, measured as the
+wall time of the same command resumed on the finished folder (it plays no trial), is added.
+Meanwhile the runner's process hands out trials and writes every row beside the workers, on a
+core of its own: its CPU time in the 1-worker run bounds the projection from below. The
+projected speed-up is an upper bound (the wall time a lower bound): it assumes a trial costs on
+16 busy cores what it costs on one.
 The second worker's extra CPU measures the same start-up too, but within the noise of two whole
 runs (between 0 and 19 s on the 2-core development machine); it is printed beside it.
 
@@ -68,6 +72,10 @@ def run_once(
 
     The run's stderr (its progress and training lines) goes to ``log`` as it is written, so a
     run stopped from outside still leaves its progress behind; by default to a temporary file.
+    The same command with ``--resume`` then runs once more on the finished folder: it plays no
+    trial, so its wall time (``"serial"``) is what the runner does alone, before the workers get
+    work (imports, loading and checking the spec, reading the folder) and after the last row
+    (packing the rows, the CSV, the tables).
     """
     shutil.rmtree(cache / "artefacts", ignore_errors=True)
     out = Path(tempfile.mkdtemp(prefix="bench-scaling-"))
@@ -89,16 +97,22 @@ def run_once(
         for path in sorted(out.rglob("results.csv")):
             with open(path, newline="") as handle:
                 rows += list(csv.DictReader(handle))
+        start = time.perf_counter()
+        again = subprocess.run([*argv, "--resume"], env=env, capture_output=True, text=True)
+        serial = time.perf_counter() - start
     finally:
         shutil.rmtree(out, ignore_errors=True)
     if done.returncode not in (0, 1):
         raise RuntimeError(f"{' '.join(argv)} failed:\n{text[-3000:]}")
+    if again.returncode not in (0, 1):
+        raise RuntimeError(f"{' '.join(argv)} --resume failed:\n{again.stderr[-3000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     runner = re.findall(r"^runner CPU ([0-9.]+) s$", text, re.M)
     return {
         "wall": wall,
         "cpu": cpu,
         "runner_cpu": float(runner[-1]) if runner else None,
+        "serial": serial,
         "load": (load, os.getloadavg()[0]),
         "log": text,
         "rows": rows,
@@ -168,15 +182,22 @@ def worker_startup(spec: str, size: str, cache: Path) -> dict:
     seed of every agent × cell twice: the start-up is its CPU time until the trials began (the
     interpreter and the imports) plus the first round's excess over the second (loading
     networks and compiled kernels, building each cell's models). A worker of a big run meets
-    only some of those firsts, so this overstates its start-up a little. (``bench estimate``
-    charges the imports alone: :func:`ns_pz.experiments.estimate.worker_startup`.)
+    only some of those firsts, and the 1-worker run's rows hold them once already, so this
+    overstates its start-up a little. Call it after a run that left the networks in ``cache``
+    (else its first round trains them). (``bench estimate`` charges the imports alone:
+    :func:`ns_pz.experiments.estimate.worker_startup`.)
+
+    Raises:
+        RuntimeError: The probe failed; its stderr is in the message.
 
     Returns:
         ``{"seconds", "imports", "first_uses", "trials"}``.
     """
     env = {**os.environ, "NS_PZ_CACHE_DIR": str(cache)}
     argv = [sys.executable, "-c", _STARTUP_PROBE, spec, size]
-    done = subprocess.run(argv, env=env, capture_output=True, text=True, check=True)
+    done = subprocess.run(argv, env=env, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"the start-up probe failed:\n{done.stderr[-3000:]}")
     probe = json.loads(done.stdout.strip().splitlines()[-1])
     first_uses = max(0.0, probe["cold"] - probe["warm"])
     trials = len({(t.cell, t.agent.label) for t in expand(load_spec(spec, size))})
@@ -212,19 +233,21 @@ def projected(spec: ExperimentSpec, one: dict, startup: dict, workers: int) -> s
         for (_, _, agent), seconds in times.items()
     ]
     plan = project(sorted(networks.items()), groups, workers, startup["seconds"])
-    wall = plan.wall
+    serial = one.get("serial", 0.0)
+    wall = plan.wall + serial
     runner = one.get("runner_cpu")
     bound = ""
     if runner is not None:
         wall = max(wall, runner)
         bound = f"; the runner's own process, {runner:.1f} CPU-s, bounds it"
-        if runner < plan.wall:
+        if runner < plan.wall + serial:
             bound = f"; the runner's own process used {runner:.1f} CPU-s, less"
     return (
         f"projected on {workers} workers (the runner's schedule; trial and training times of "
         f"the 1-worker run; {startup['seconds']:.1f} s of start-up per worker: "
         f"{startup['imports']:.1f} s of imports, {startup['first_uses']:.1f} s of first uses over "
-        f"{startup['trials']} agent x cell trials): {plan.text()}{bound} ({wall:.1f} s): "
+        f"{startup['trials']} agent x cell trials): {plan.text()}; plus {serial:.1f} s the "
+        f"runner works alone (before the first trial and after the last){bound} ({wall:.1f} s): "
         f"{one['cpu'] / wall:.1f}x one idle core ({one['cpu']:.1f} s)"
     )
 

@@ -376,8 +376,8 @@ def test_compiled_and_numpy_gradient_steps_agree_bit_for_bit(inputs, hidden, one
             if path == "numpy":
                 patch.setattr(ddqn, "compiled_step", lambda: None)
             learner = new_learner(inputs, 3, args, 5)
-            w, _ = learner.layers[-1]
-            w[:, 1] = w[:, 0]  # actions 0 and 1 tie until a step tells them apart
+            w, b = learner.layers[-1]
+            w[:, 1], b[1] = w[:, 0], b[0]  # actions 0 and 1 tie until a step tells them apart
             learner.sync_target()
             losses, grads = [], []
             for batch in batches:

@@ -229,7 +229,7 @@ def test_an_absurd_episode_count_is_refused_at_once(tmp_path: Path) -> None:
 def test_a_full_disk_names_the_file_and_leaves_no_temporary_file(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """ENOSPC named no path and left zero-byte `.KEY.json.*.tmp` files behind."""
+    """ENOSPC named no path and left zero-byte temporary files behind (a row's and the CSV's)."""
     import ns_pz.experiments.store as store_module
 
     experiment = load_spec(write(tmp_path), "quick")

@@ -25,7 +25,7 @@ numba_cache.install()  # before the first cache=True below: caches go to a user 
 TINY = float(np.finfo(np.float64).tiny)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, boundscheck=True)  # an action out of range: IndexError, as in NumPy
 def td_delta(q, next_online, next_target, actions, rewards, terminated, gamma, delta, squares):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """The loss's gradient at the output into ``delta``, the squared TD errors into ``squares``.
 

@@ -29,6 +29,9 @@ ADAM_EPS = 1e-8
 Layers = list[tuple[np.ndarray, np.ndarray]]
 """``(W [in, out], b [out])`` per layer, views into a flat parameter vector."""
 
+_TINY = {np.dtype(t).char: np.finfo(t).tiny for t in (np.float32, np.float64)}
+"""The smallest normal value of the learners' dtypes (``np.finfo`` costs a call each time)."""
+
 
 @functools.cache
 def _blas() -> ThreadpoolController:
@@ -101,10 +104,10 @@ def flush_subnormals(values: np.ndarray) -> None:
     nothing beside Adam's ε: flushed, the full FrozenLake Double DQN trained the same bits in
     every normal weight (only 330 subnormal ones became 0).
     """
-    np.copyto(values, 0.0, where=np.abs(values) < _TINY[values.dtype.char])
-
-
-_TINY = {np.dtype(t).char: np.finfo(t).tiny for t in (np.float16, np.float32, np.float64)}
+    tiny = _TINY.get(values.dtype.char)
+    if tiny is None:
+        tiny = np.finfo(values.dtype).tiny
+    np.copyto(values, 0.0, where=np.abs(values) < tiny)
 
 
 class MLPLearner:

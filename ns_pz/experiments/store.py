@@ -26,7 +26,7 @@ leaves rows twice, and a trial file wins over its packed copy). Every file but a
 also flushed to disk (``fsync``) before the rename, so a crashed machine leaves them complete
 too. A trial's row is not: the runner's one process writes every row, and with ``fsync`` and
 a random temporary name a row cost it about 0.9 ms (0.35 ms without, on the development
-machine), so the full FrozenLake table's 8,400 rows took it about 7 s, half the 14 s its trials
+machine), so the full FrozenLake table's 8,400 rows took it about 7.6 s, half the 14 s its trials
 are projected to take on 16 workers. A machine that crashes may lose the rows of its last
 seconds or leave their files empty; either counts as not done (an empty file is named as
 unreadable), and ``--resume`` plays them again.
@@ -471,10 +471,13 @@ def _write_renamed(path: Path, text: str) -> None:
         if path.exists():
             as_if_created(temporary, replacing=path)
         os.replace(temporary, path)
-    except OSError as error:
+    except BaseException as error:
         with contextlib.suppress(OSError):
             os.unlink(temporary)
-        raise OSError(error.errno, f"cannot write {path}: {error.strerror or error}") from error
+        if isinstance(error, OSError):
+            reason = error.strerror or str(error)
+            raise OSError(error.errno, f"cannot write {path}: {reason}") from error
+        raise
 
 
 @contextlib.contextmanager
