@@ -26,9 +26,9 @@ leaves rows twice, and a trial file wins over its packed copy). Every file but a
 also flushed to disk (``fsync``) before the rename, so a crashed machine leaves them complete
 too. A trial's row is not: the runner's one process writes every row, and with ``fsync`` and
 a random temporary name a row cost it about 0.9 ms (0.35 ms without, on the development
-machine), so the full FrozenLake table's 8,400 rows took it about 7.6 s, half the 14 s its trials
-are projected to take on 16 workers. A machine that crashes may lose the rows of its last
-seconds or leave their files empty; either counts as not done (an empty file is named as
+machine), so the full FrozenLake table's 8,400 rows took it about 7.6 s, about half the 14-18 s
+its trials are projected to take on 16 workers. A machine that crashes may lose the rows of its
+last seconds or leave their files empty; either counts as not done (an empty file is named as
 unreadable), and ``--resume`` plays them again.
 Resuming skips the trials that have a row with status ``ok`` and re-runs the rest, errors
 included. A row that cannot be read anyway (a disk that filled up, a copy cut short, a hand
