@@ -22,7 +22,7 @@ core of its own: its CPU time in the 1-worker run bounds the projection from bel
 projected speed-up is an upper bound (the wall time a lower bound): it assumes a trial costs on
 16 busy cores what it costs on one.
 The second worker's extra CPU measures the same start-up too, but within the noise of two whole
-runs (between 0 and 19 s on the 2-core development machine); it is printed beside it.
+runs (between -27 and 19 s on the 2-core development machine); it is printed beside it.
 
 The cache used is ``--cache`` (default: a folder under the system's temporary folder, kept
 between calls so the compiled kernels are built once); the user's cache is never touched.
@@ -75,7 +75,8 @@ def run_once(
     The same command with ``--resume`` then runs once more on the finished folder: it plays no
     trial, so its wall time (``"serial"``) is what the runner does alone, before the workers get
     work (imports, loading and checking the spec, reading the folder) and after the last row
-    (packing the rows, the CSV, the tables).
+    (packing the rows, the CSV, the tables). It reads every stored row, which a fresh run does
+    not, so it overstates that a little. ``None`` when a trial failed (resuming would replay it).
     """
     shutil.rmtree(cache / "artefacts", ignore_errors=True)
     out = Path(tempfile.mkdtemp(prefix="bench-scaling-"))
@@ -97,15 +98,17 @@ def run_once(
         for path in sorted(out.rglob("results.csv")):
             with open(path, newline="") as handle:
                 rows += list(csv.DictReader(handle))
-        start = time.perf_counter()
-        again = subprocess.run([*argv, "--resume"], env=env, capture_output=True, text=True)
-        serial = time.perf_counter() - start
+        if done.returncode not in (0, 1):
+            raise RuntimeError(f"{' '.join(argv)} failed:\n{text[-3000:]}")
+        serial = None  # a run with failed trials would play them again: no serial figure
+        if done.returncode == 0:
+            start = time.perf_counter()
+            again = subprocess.run([*argv, "--resume"], env=env, capture_output=True, text=True)
+            serial = time.perf_counter() - start
+            if again.returncode != 0:
+                raise RuntimeError(f"{' '.join(argv)} --resume failed:\n{again.stderr[-3000:]}")
     finally:
         shutil.rmtree(out, ignore_errors=True)
-    if done.returncode not in (0, 1):
-        raise RuntimeError(f"{' '.join(argv)} failed:\n{text[-3000:]}")
-    if again.returncode not in (0, 1):
-        raise RuntimeError(f"{' '.join(argv)} --resume failed:\n{again.stderr[-3000:]}")
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     runner = re.findall(r"^runner CPU ([0-9.]+) s$", text, re.M)
     return {
@@ -233,7 +236,7 @@ def projected(spec: ExperimentSpec, one: dict, startup: dict, workers: int) -> s
         for (_, _, agent), seconds in times.items()
     ]
     plan = project(sorted(networks.items()), groups, workers, startup["seconds"])
-    serial = one.get("serial", 0.0)
+    serial = one.get("serial") or 0.0
     wall = plan.wall + serial
     runner = one.get("runner_cpu")
     bound = ""

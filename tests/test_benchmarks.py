@@ -201,7 +201,8 @@ def test_scaling_projection_plays_the_runners_schedule():
     slow = module.projected(spec, {**one, "runner_cpu": 60.0}, startup, 16)
     assert "the runner's own process, 60.0 CPU-s, bounds it (60.0 s)" in slow
     alone = module.projected(spec, {**one, "serial": 5.0}, startup, 16)
-    assert f"({wall + 5.0:.1f} s)" in alone and "plus 5.0 s the runner works alone" in alone
+    assert "plus 5.0 s the runner works alone" in alone
+    assert abs(float(alone.rsplit("(", 2)[1].split(" s)")[0]) - (wall + 5.0)) <= 0.11
 
 
 def test_scaling_measures_a_workers_start_up_in_a_fresh_process(tmp_path):

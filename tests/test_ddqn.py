@@ -412,6 +412,20 @@ def test_the_compiled_target_picks_the_first_best_and_a_nan_as_argmax_does():
     np.testing.assert_array_equal(delta, expected)
 
 
+def test_the_compiled_target_refuses_an_action_out_of_range_as_numpy_does():
+    """An action index past the network's outputs raises IndexError on both paths."""
+    pytest.importorskip("numba")
+    drawn = _random_batch(np.random.default_rng(0), 4, 3, 3, True)
+    actions = np.array([0, 1, 3, 2])  # 3 is past the last of three actions
+    batch = Batch(drawn.features, actions, drawn.rewards, drawn.next_features, drawn.terminated)
+    for path in ("compiled", "numpy"):
+        with pytest.MonkeyPatch.context() as patch:
+            if path == "numpy":
+                patch.setattr(ddqn, "compiled_step", lambda: None)
+            with pytest.raises(IndexError):
+                new_learner(3, 3, DDQNArgs(hidden=(4,)), 0).gradient_step(batch)
+
+
 def test_training_is_the_same_with_and_without_numba():
     """A short training run gives the same network bit for bit on both paths."""
     pytest.importorskip("numba")
