@@ -83,6 +83,7 @@ def run_once(
     env = {**os.environ, "NS_PZ_CACHE_DIR": str(cache)}
     argv = [sys.executable, "-c", _RUN_AND_TELL, "bench", "run", spec, "--size", size]
     argv += ["--workers", str(workers), "--out", str(out), *extra]
+    command = " ".join(["ns-pz", *argv[3:]])  # for messages: the wrapper's code left out
     log = log or out / "stderr.log"
     log.parent.mkdir(parents=True, exist_ok=True)
     load = os.getloadavg()[0]
@@ -99,14 +100,14 @@ def run_once(
             with open(path, newline="") as handle:
                 rows += list(csv.DictReader(handle))
         if done.returncode not in (0, 1):
-            raise RuntimeError(f"{' '.join(argv)} failed:\n{text[-3000:]}")
+            raise RuntimeError(f"{command} failed:\n{text[-3000:]}")
         serial = None  # a run with failed trials would play them again: no serial figure
         if done.returncode == 0:
             start = time.perf_counter()
             again = subprocess.run([*argv, "--resume"], env=env, capture_output=True, text=True)
             serial = time.perf_counter() - start
             if again.returncode != 0:
-                raise RuntimeError(f"{' '.join(argv)} --resume failed:\n{again.stderr[-3000:]}")
+                raise RuntimeError(f"{command} --resume failed:\n{again.stderr[-3000:]}")
     finally:
         shutil.rmtree(out, ignore_errors=True)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
