@@ -146,9 +146,12 @@ def main() -> None:
         result = results[workers] = run_once(args.spec, args.size, workers, cache, extra, log)
         if args.log:
             print(result["log"])
+        runner, serial = result["runner_cpu"], result["serial"]
         print(
             f"{args.spec} {args.size} --workers {workers}: wall {result['wall']:.1f} s, "
-            f"CPU {result['cpu']:.1f} s, load {result['load'][0]:.2f} -> {result['load'][1]:.2f}",
+            f"CPU {result['cpu']:.1f} s (the runner's own {_seconds(runner)}), alone before and "
+            f"after the trials {_seconds(serial)}, "
+            f"load {result['load'][0]:.2f} -> {result['load'][1]:.2f}",
             flush=True,
         )
     if args.project is not None and 1 in results:
@@ -158,6 +161,11 @@ def main() -> None:
             extra = results[2]["cpu"] - results[1]["cpu"]
             print(f"the second worker's extra CPU: {extra:.1f} s")
         print(projected(spec, results[1], startup, args.project))
+
+
+def _seconds(value: float | None) -> str:
+    """``value`` as seconds for a line of output; "n/a" where the run did not measure it."""
+    return "n/a" if value is None else f"{value:.1f} s"
 
 
 _STARTUP_PROBE = """
