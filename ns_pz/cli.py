@@ -115,23 +115,24 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     from ns_pz.experiments.lock import locked
     from ns_pz.experiments.store import ResultStore
 
-    specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
     backend = make_backend(args.backend, args.workers, args.address)
-    root = Path(args.out)
-    targets = [root / f"{experiment.name}-{experiment.size}" for experiment in specs]
-    for target in targets:  # every directory is checked before any trial runs
-        if targets.count(target) > 1:
-            raise SpecError(f"two of the specs would write to {target}; name each spec once")
-    for experiment, target in zip(specs, targets, strict=True):
-        try:
-            ResultStore(target).check(experiment, args.resume)  # writes nothing
-        except SpecError as error:
-            if args.resume or not (target / "spec.json").is_file():
-                raise
-            raise SpecError(f"{error} (its tables again: ns-pz bench table {target})") from None
     failed = 0
     with contextlib.ExitStack() as held:  # one run per directory, from the check to the end
         held.enter_context(backend)  # its workers stay up from one spec to the next
+        backend.start()  # they start while the specs load (a bad one stops them at once)
+        specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
+        root = Path(args.out)
+        targets = [root / f"{experiment.name}-{experiment.size}" for experiment in specs]
+        for target in targets:  # every directory is checked before any trial runs
+            if targets.count(target) > 1:
+                raise SpecError(f"two of the specs would write to {target}; name each spec once")
+        for experiment, target in zip(specs, targets, strict=True):
+            try:
+                ResultStore(target).check(experiment, args.resume)  # writes nothing
+            except SpecError as error:
+                if args.resume or not (target / "spec.json").is_file():
+                    raise
+                raise SpecError(f"{error} (its tables again: ns-pz bench table {target})") from None
         for experiment, target in zip(specs, targets, strict=True):
             held.enter_context(locked(target))
             ResultStore(target).check(experiment, args.resume)  # again, now no one else writes

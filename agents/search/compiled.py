@@ -158,6 +158,18 @@ def kernels() -> ModuleType:
     return importlib.import_module("ns_pz.agents.search._kernels")
 
 
+def warm_up() -> None:
+    """Import the kernels and start numba now, where numba is installed.
+
+    A process's first cached kernel costs numba's own start besides its own loading (about
+    0.3 s on the development machine, once per process, whichever kernel it is). A benchmark
+    worker calls this as it starts, while the runner still loads the spec, so its first search
+    or network training does not wait for numba.
+    """
+    if numba_available():
+        kernels().ready(0)
+
+
 _UNCACHED = "ns_pz.agents.search._kernels_uncached"
 
 

@@ -32,6 +32,7 @@ from ns_pz.experiments.work import (
     run_batch,
     train_and_ship,
     train_network,
+    warm_up_worker,
 )
 
 BACKENDS = ("local", "ray")
@@ -58,6 +59,13 @@ class Backend(ABC):
                 own are ready. A trial whose network failed to train is an error row.
                 ``None``: none is trained first.
             on_trained: Called with each missing network's outcome as it ends.
+        """
+
+    def start(self) -> None:  # noqa: B027 - a no-op unless a backend has workers to start
+        """Start the workers now, so they start while the caller still prepares the run.
+
+        Optional: :meth:`run` starts them if this was not called. Without a ``with`` block,
+        workers started here stop at the end of the next run (or at :meth:`close`).
         """
 
     def close(self) -> None:  # noqa: B027 - a no-op unless a backend keeps something
@@ -111,12 +119,31 @@ class LocalBackend(Backend):
         self._keep = True
         return self
 
+    def __exit__(self, *exc: object) -> None:
+        """Stop the workers: at once if the block ended in an exception, else after their jobs.
+
+        A spec that fails to load should not wait for workers still warming up.
+        """
+        self._stop(clean=exc[0] is None)
+
+    def start(self) -> None:
+        """Start the workers now (each imports the agents' code and starts numba as it starts).
+
+        ``ns-pz bench run`` calls this before it loads the specs, so the workers' start-up
+        (about a second each, in parallel) overlaps the runner's own.
+        """
+        if self._pool is None:
+            self._pool = Pool(self.workers, _CANNOT_START, warm_up_worker)
+
     def close(self) -> None:
-        """Stop the workers kept between runs, if any."""
+        """Stop the workers kept between runs or started by :meth:`start`, if any."""
+        self._stop(clean=True)
+
+    def _stop(self, clean: bool) -> None:
         self._keep = False
         if self._pool is not None:
             pool, self._pool = self._pool, None
-            pool.close(clean=True)
+            pool.close(clean)
 
     def run(
         self,
@@ -130,7 +157,7 @@ class LocalBackend(Backend):
         shown = training is not None and training.shown
         if schedule.done:
             return
-        pool, self._pool = self._pool or Pool(self.workers, _CANNOT_START), None
+        pool, self._pool = self._pool or Pool(self.workers, _CANNOT_START, warm_up_worker), None
         clean = False
         try:
             while True:

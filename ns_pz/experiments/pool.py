@@ -21,16 +21,23 @@ from ns_pz.workers import die_with_parent, worker_context
 
 
 class Worker:
-    """One worker process: what it runs now and what it has run (its warm labels)."""
+    """One worker process: what it runs now and what it has run (its warm labels).
 
-    def __init__(self, index: int) -> None:
+    ``warm_up`` (a module-level function: the worker imports it) runs in the new process once
+    it has said it started, before its first job.
+    """
+
+    def __init__(self, index: int, warm_up: Callable[[], None] | None = None) -> None:
         context = worker_context()
         self.index = index
         self.conn, child = context.Pipe(duplex=True)
-        self.process = context.Process(target=_serve, args=(child, os.getpid()), daemon=True)
+        self.process = context.Process(
+            target=_serve, args=(child, os.getpid(), warm_up), daemon=True
+        )
         self.process.start()
         child.close()  # the worker holds the only other end: EOF when it dies
         self.started = False
+        self.used = False  # given a job once
         self.job: Any = None
         self.warm: set[str] = set()
 
@@ -40,13 +47,18 @@ class Worker:
         return self.process.exitcode
 
 
-def _serve(conn: Connection, parent: int) -> None:
-    """A worker's loop: say it started, then call each ``(function, args)`` and send back."""
+def _serve(conn: Connection, parent: int, warm_up: Callable[[], None] | None) -> None:
+    """A worker's loop: say it started, warm up, then call each ``(function, args)``."""
     die_with_parent(parent)
     # The parent starts workers as daemons (ended at its exit); in here the flag would forbid
     # a trial's own processes (an SB3 SubprocVecEnv, a pool of its own), so it is cleared.
     multiprocessing.current_process().daemon = False
     conn.send(None)
+    if warm_up is not None:
+        # Only a head start: whatever fails here fails again in the job that needs it, which
+        # reports it as that job's error.
+        with contextlib.suppress(Exception):
+            warm_up()
     while True:
         try:
             message = conn.recv()
@@ -72,12 +84,18 @@ class Outcome:
 class Pool:
     """``size`` workers; :meth:`submit` a job to an idle one, :meth:`wait` for results.
 
+    Each worker, and each one started in place of a dead one, first calls ``warm_up`` (see
+    :class:`Worker`); jobs submitted meanwhile wait for it.
+
     Raises (from :meth:`wait`):
         RuntimeError: A worker ended before any worker started (see ``cannot_start``).
     """
 
-    def __init__(self, size: int, cannot_start: str) -> None:
-        self.workers = [Worker(index) for index in range(size)]
+    def __init__(
+        self, size: int, cannot_start: str, warm_up: Callable[[], None] | None = None
+    ) -> None:
+        self.warm_up = warm_up
+        self.workers = [Worker(index, warm_up) for index in range(size)]
         self.cannot_start = cannot_start
         self._any_started = False
 
@@ -101,9 +119,9 @@ class Pool:
         except OSError:  # it died while idle: a fresh one takes the job
             worker.exitcode()
             worker.conn.close()
-            worker = self.workers[worker.index] = Worker(worker.index)
+            worker = self.workers[worker.index] = Worker(worker.index, self.warm_up)
             worker.conn.send((function, args))
-        worker.job = job
+        worker.job, worker.used = job, True
         return worker
 
     def wait(self) -> list[Outcome]:
@@ -134,13 +152,17 @@ class Pool:
             how = f"before they started (one {how_it_ended(code)})"
             raise RuntimeError(self.cannot_start.format(how=how))
         worker.conn.close()
-        self.workers[worker.index] = Worker(worker.index)
+        self.workers[worker.index] = Worker(worker.index, self.warm_up)
         return Outcome(worker, worker.job, died=True, exitcode=code)
 
     def close(self, clean: bool) -> None:
-        """Stop every worker: after telling it to end if ``clean``, else at once (terminate)."""
+        """Stop every worker: after telling it to end if ``clean``, else at once (terminate).
+
+        A worker that was never given a job is stopped at once either way: it may still be
+        warming up, which a clean end would wait for.
+        """
         for worker in self.workers:
-            if clean:
+            if clean and worker.used:
                 with contextlib.suppress(OSError):
                     worker.conn.send(None)
             else:

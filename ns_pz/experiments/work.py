@@ -31,6 +31,7 @@ from ns_pz.agents.learning.artefacts import (
     save,
 )
 from ns_pz.agents.learning.trained import Needed
+from ns_pz.agents.search.compiled import warm_up
 from ns_pz.experiments.progress import Progress
 from ns_pz.experiments.spec import ExperimentSpec
 from ns_pz.experiments.trials import Trial, error_row, run_trial
@@ -137,6 +138,17 @@ def _drawn(need: Needed) -> Callable[[], Any]:
             bar.close()
 
     return train
+
+
+def warm_up_worker() -> None:
+    """A fresh worker's head start, before its first job: every agent's code, and numba.
+
+    Importing this module imports the agents; numba starts in
+    :func:`~ns_pz.agents.search.compiled.warm_up`. A worker started with
+    :meth:`~ns_pz.experiments.backends.LocalBackend.start` does this while the runner still
+    loads the spec, so the first network's training starts at once.
+    """
+    warm_up()
 
 
 def run_batch(spec: ExperimentSpec, trials: Sequence[Trial]) -> list[dict[str, Any]]:
