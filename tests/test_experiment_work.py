@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections import deque
 from pathlib import Path
+from typing import Any
 
 import pytest
 from specs_for_tests import RANDOM, VI, tiny_spec
@@ -303,6 +304,84 @@ def test_a_job_in_a_worker_may_start_processes_of_its_own() -> None:
         assert [(o.job, o.died, o.result) for o in outcomes] == [("job", False, 0)]
     finally:
         pool.close(clean=True)
+
+
+def _mark_warm() -> None:
+    import os
+
+    os.environ["NS_PZ_TEST_WARMED_UP"] = "yes"
+
+
+def _fail_to_warm_up() -> None:
+    raise RuntimeError("no head start today")
+
+
+def _warm_up_for_a_minute() -> None:
+    import time
+
+    time.sleep(60)
+
+
+def _first_outcome(pool: Any) -> Any:
+    outcomes = pool.wait()
+    while not outcomes:  # the first message only says the worker started
+        outcomes = pool.wait()
+    return outcomes[0]
+
+
+def test_a_worker_warms_up_before_its_first_job() -> None:
+    """The warm-up runs in the worker itself, before the job sent meanwhile."""
+    import os
+
+    from ns_pz.experiments.pool import Pool
+
+    pool = Pool(1, "cannot start: {how}", _mark_warm)
+    try:
+        pool.submit(pool.idle()[0], "job", os.getenv, "NS_PZ_TEST_WARMED_UP")
+        outcome = _first_outcome(pool)
+        assert (outcome.job, outcome.died, outcome.result) == ("job", False, "yes")
+    finally:
+        pool.close(clean=True)
+
+
+def test_a_warm_up_that_fails_leaves_the_worker_serving() -> None:
+    """A warm-up is only a head start: its failure is not the job's, nor the worker's end."""
+    from ns_pz.experiments.pool import Pool
+
+    pool = Pool(1, "cannot start: {how}", _fail_to_warm_up)
+    try:
+        pool.submit(pool.idle()[0], "job", abs, -3)
+        outcome = _first_outcome(pool)
+        assert (outcome.job, outcome.died, outcome.result) == ("job", False, 3)
+    finally:
+        pool.close(clean=True)
+
+
+def test_closing_does_not_wait_for_a_worker_that_never_had_a_job() -> None:
+    """A bad spec stops `bench run` before any job: its workers, still warming up, stop now."""
+    import time
+
+    from ns_pz.experiments.pool import Pool
+
+    pool = Pool(2, "cannot start: {how}", _warm_up_for_a_minute)
+    start = time.perf_counter()
+    pool.close(clean=True)
+    assert time.perf_counter() - start < 30
+    assert all(worker.process.exitcode is not None for worker in pool.workers)
+
+
+def test_a_started_local_backend_runs_on_the_workers_it_started() -> None:
+    """`start` makes the pool at once; the next run uses it, and closes it at its end."""
+    backend = LocalBackend(1)
+    backend.start()
+    pool = backend._pool
+    assert pool is not None and len(pool.workers) == 1
+    spec = load_spec("frozenlake-single", "quick")
+    trials = [t for t in expand(spec) if t.agent.name == "random"][:2]
+    rows = [row for _, row in backend.run(spec, trials)]
+    assert [row["status"] for row in rows] == ["ok", "ok"]
+    assert pool.workers[0].used and backend._pool is None
+    assert pool.workers[0].process.exitcode is not None  # stopped: no `with` kept it
 
 
 @pytest.mark.parametrize("user_setting", [None, "3"])
