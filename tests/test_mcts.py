@@ -161,6 +161,13 @@ def test_large_budget_finds_the_optimal_action_of_a_small_mdp(backend):
             60,
             0.999,
         ),
+        (  # a deterministic table: its compiled step still draws, as the Python one does
+            "ns_pz/CliffWalking-v0",
+            {"goal_reward": 100.0, "params": {"slip": (1.0, 0.0, 0.0, 0.0)}},
+            150,
+            60,
+            0.999,
+        ),
         ("ns_pz/BridgeSplit-v0", {"params": {"slip_left": (0.5, 0.25, 0.25)}}, 150, 30, 0.99),
         ("ns_pz/CartPole-v0", {"params": {"masspole": 0.7}}, 120, 200, 0.5),
         ("ns_pz/CartPole-v0", {"kinematics_integrator": "semi-implicit euler"}, 60, 100, 1.0),
@@ -577,6 +584,67 @@ def test_the_kernels_walk_known_edges_only_for_a_step_registered_deterministic()
     ask = numba.njit(lambda data: family_is_deterministic(data))
     cartpole = CartPoleData(9.8, 1.0, 0.1, 0.5, 10.0, 0.02, True, 2.4, 0.2)
     table = TabularData(np.ones((1, 1, 1)), np.zeros((1, 1, 1), np.int64), np.zeros((1, 1, 1)),
-                        np.zeros((1, 1, 1), np.bool_))  # fmt: skip
+                        np.zeros((1, 1, 1), np.bool_), np.zeros((1, 1), np.int64))  # fmt: skip
     assert ask(cartpole) is True and CartPoleFamily.deterministic_step
     assert ask(table) is False
+
+
+def _first_exceeding(probs: list[float], u: float) -> int:
+    """The Python model's rule: the first outcome whose running total exceeds ``u``.
+
+    Else (the probabilities sum to ``u`` or less) the last outcome of positive probability.
+    """
+    total = 0.0
+    for k, p in enumerate(probs):
+        total += p
+        if u < total:
+            return k
+    return max(k for k, p in enumerate(probs) if p > 0.0)
+
+
+@needs_numba
+def test_compiled_table_steps_pick_the_first_outcome_whose_total_exceeds_the_draw():
+    """The tree's step scans, the rollout counts; both give the Python model's outcome.
+
+    The tree's step scans the cumulative probabilities for the first above the draw, the
+    rollout counts those at or below it. Every edge: a draw equal to a cumulative probability or
+    one float either side of it, outcomes of zero probability, a row whose probabilities sum
+    below the draw (the last outcome of positive probability).
+    """
+    from types import SimpleNamespace
+
+    import numba
+    from ns_pz.agents.search._kernels import family_step
+    from ns_pz.agents.search.compiled import _tabular_data, kernels
+
+    u = np.random.default_rng(7).random()  # the first draw of the model generator below
+    below, above = np.nextafter(u, 0.0), np.nextafter(u, 1.0)
+    rows = [
+        [u, 0.0, 1.0 - u],
+        [below, 0.0, 1.0 - below],
+        [above, 0.0, 1.0 - above],
+        [0.0, u, 1.0 - u],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.25 * u, 0.5 * u, 0.0],  # sums below u (no table model accepts it; the kernel must)
+    ]
+    probs = np.array(rows)[:, None, :]  # one action
+    shape = probs.shape
+    outcomes = TabularOutcomes(
+        probs,
+        np.zeros(shape, np.int64),
+        np.broadcast_to(np.arange(3.0), shape).copy(),  # the reward numbers the outcome
+        np.ones(shape, np.bool_),  # every outcome ends the episode: a rollout is one step
+    )
+    data = _tabular_data(SimpleNamespace(outcomes=outcomes))
+    step = numba.njit(lambda data, state, out, rng: family_step(data, state, out, 0, rng))
+    for s, row in enumerate(rows):
+        expected = _first_exceeding(row, u)
+        state = np.array([float(s)])
+        returns, steps = kernels().repeated_rollouts(
+            data, state, 1, 1, 5, 1.0, np.random.default_rng(7), np.random.default_rng(0)
+        )
+        assert (returns[0], steps) == (expected, 1), (s, row)
+        reward, done = step(data, state, np.empty(1), np.random.default_rng(7))
+        assert (reward, done) == (expected, True), (s, row)
+    assert [_first_exceeding(r, u) for r in rows] == [2, 2, 0, 2, 2, 0, 1]  # the edges are met

@@ -209,33 +209,33 @@ def generic_rollout(data, state, num_actions, depth, gamma, model_rng, search_rn
 def tabular_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
     """One uniform draw picks the first outcome whose cumulative probability exceeds it."""
     s = int(state[0])
-    probs = data.probs
-    num_outcomes = probs.shape[2]
+    cumulative = data.cumulative
     u = rng.random()
-    total = 0.0
-    pick = -1
-    for k in range(num_outcomes):
-        total += probs[s, action, k]
-        if u < total:
+    pick = data.last_outcome[s, action]  # if rounding left the total at or below u
+    for k in range(cumulative.shape[2]):
+        if u < cumulative[s, action, k]:
             pick = k
             break
-    if pick < 0:  # rounding left the sum below u: the last outcome of positive probability
-        for k in range(num_outcomes - 1, -1, -1):
-            if probs[s, action, k] > 0.0:
-                pick = k
-                break
     out[0] = data.next_states[s, action, pick]
     return data.rewards[s, action, pick], data.terminals[s, action, pick]
 
 
 @numba.njit(cache=CACHE)
 def tabular_rollout(data, state, num_actions, depth, gamma, model_rng, search_rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
-    """:func:`generic_rollout` with :func:`tabular_step` written into the loop."""
-    probs = data.probs
+    """:func:`generic_rollout` with :func:`tabular_step` written into the loop, branch-free.
+
+    The outcome is the number of cumulative probabilities at or below the draw (they never
+    decrease, so these come first): no branch on the draw, which the CPU would often mispredict
+    where the outcome is truly random. Everything is written out here with the table's fields
+    read once before the loop: a helper function or a field read inside the loop makes every
+    step pay reference counts.
+    """
+    cumulative = data.cumulative
+    last_outcome = data.last_outcome
     next_states = data.next_states
     rewards = data.rewards
     terminals = data.terminals
-    num_outcomes = probs.shape[2]
+    num_outcomes = cumulative.shape[2]
     s = int(state[0])
     total = 0.0
     discount = 1.0
@@ -243,18 +243,11 @@ def tabular_rollout(data, state, num_actions, depth, gamma, model_rng, search_rn
     while steps < depth:
         action = _uniform_index(search_rng, num_actions)
         u = model_rng.random()
-        cumulative = 0.0
-        pick = -1
+        pick = 0
         for k in range(num_outcomes):
-            cumulative += probs[s, action, k]
-            if u < cumulative:
-                pick = k
-                break
-        if pick < 0:
-            for k in range(num_outcomes - 1, -1, -1):
-                if probs[s, action, k] > 0.0:
-                    pick = k
-                    break
+            pick += cumulative[s, action, k] <= u
+        if pick == num_outcomes:  # rounding left the total at or below u
+            pick = last_outcome[s, action]
         total += discount * rewards[s, action, pick]
         discount *= gamma
         steps += 1

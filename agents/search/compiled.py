@@ -49,17 +49,25 @@ BACKENDS = ("auto", "compiled", "python")
 class TabularData(NamedTuple):
     """An outcome table (:class:`ns_pz.planning.TabularOutcomes`) as C-contiguous arrays.
 
+    A step draws ``u`` uniform in [0, 1) and takes the first outcome whose cumulative
+    probability exceeds it (the Python model's rule), read off ``cumulative``.
+
     Attributes:
-        probs: ``[num_states, num_actions, num_outcomes]`` float64.
+        cumulative: ``[num_states, num_actions, num_outcomes]`` float64: the probabilities
+            summed along the outcomes, in order (the same sums as the Python model's running
+            total).
         next_states: same shape, int64.
         rewards: same shape, float64.
         terminals: same shape, bool.
+        last_outcome: ``[num_states, num_actions]`` int64: the last outcome of positive
+            probability, taken when rounding leaves the total at or below ``u``.
     """
 
-    probs: np.ndarray
+    cumulative: np.ndarray
     next_states: np.ndarray
     rewards: np.ndarray
     terminals: np.ndarray
+    last_outcome: np.ndarray
 
 
 class CartPoleData(NamedTuple):
@@ -254,11 +262,16 @@ def compile_model(model: Any, backend: str) -> CompiledModel | None:
 # --- built-in families ----------------------------------------------------------------------
 def _tabular_data(model: Any) -> TabularData:
     table = model.outcomes
+    probs = np.array(table.probs, dtype=np.float64, order="C")
+    num_outcomes = probs.shape[2]
+    # the last positive outcome: the first of the reversed outcome axis, counted from the end
+    last = num_outcomes - 1 - np.argmax(probs[:, :, ::-1] > 0.0, axis=2)
     return TabularData(
-        np.array(table.probs, dtype=np.float64, order="C"),
+        np.add.accumulate(probs, axis=2),  # one running sum per row, outcome after outcome
         np.array(table.next_states, dtype=np.int64, order="C"),
         np.array(table.rewards, dtype=np.float64, order="C"),
         np.array(table.terminals, dtype=np.bool_, order="C"),
+        np.ascontiguousarray(last, dtype=np.int64),
     )
 
 
