@@ -583,8 +583,7 @@ def test_the_kernels_walk_known_edges_only_for_a_step_registered_deterministic()
 
     ask = numba.njit(lambda data: family_is_deterministic(data))
     cartpole = CartPoleData(9.8, 1.0, 0.1, 0.5, 10.0, 0.02, True, 2.4, 0.2)
-    table = TabularData(np.ones((1, 1, 1)), np.zeros((1, 1, 1), np.int64), np.zeros((1, 1, 1)),
-                        np.zeros((1, 1, 1), np.bool_), np.zeros((1, 1), np.int64))  # fmt: skip
+    table = TabularData(np.zeros((1, 1, 1, 4)))
     assert ask(cartpole) is True and CartPoleFamily.deterministic_step
     assert ask(table) is False
 
