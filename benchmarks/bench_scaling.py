@@ -17,7 +17,7 @@ and its first use of every agent in every cell). A run on one idle core takes it
 The runner works alone before the workers get their first trial (imports, loading and checking
 the spec) and after the last row (packing, the CSV, the tables): that time, measured as the
 wall time of the same command resumed on the finished folder (it plays no trial; its workers
-start and are stopped unused, about 0.4 s more with 2 workers on the 2-core machine), is added.
+start and are stopped unused: 0.3-0.5 s more with 2 workers on the 2-core machine), is added.
 Meanwhile the runner's process hands out trials and writes every row beside the workers, on a
 core of its own: its CPU time in the 1-worker run bounds the projection from below. The
 projected speed-up is an upper bound (the wall time a lower bound): it assumes a trial costs on

@@ -322,11 +322,14 @@ def _warm_up_for_a_minute() -> None:
     time.sleep(60)
 
 
+def _die_warming_up() -> None:
+    import os
+
+    os._exit(3)
+
+
 def _first_outcome(pool: Any) -> Any:
-    outcomes = pool.wait()
-    while not outcomes:  # the first message only says the worker started
-        outcomes = pool.wait()
-    return outcomes[0]
+    return pool.wait()[0]  # a worker's first message (it started) is not an outcome
 
 
 def test_a_worker_warms_up_before_its_first_job() -> None:
@@ -357,6 +360,25 @@ def test_a_warm_up_that_fails_leaves_the_worker_serving() -> None:
         pool.close(clean=True)
 
 
+def test_a_worker_that_dies_warming_up_is_replaced_by_one_that_does_not_warm_up() -> None:
+    """Its job is an error (its process died); the next one runs on its replacement.
+
+    The replacement skips the warm-up, which would kill it again.
+    """
+    from ns_pz.experiments.pool import Pool
+
+    pool = Pool(1, "cannot start: {how}", _die_warming_up)
+    try:
+        pool.submit(pool.idle()[0], "first", abs, -1)
+        outcome = _first_outcome(pool)
+        assert (outcome.job, outcome.died, outcome.exitcode) == ("first", True, 3)
+        pool.submit(pool.idle()[0], "second", abs, -2)
+        outcome = _first_outcome(pool)
+        assert (outcome.job, outcome.died, outcome.result) == ("second", False, 2)
+    finally:
+        pool.close(clean=True)
+
+
 def test_closing_does_not_wait_for_a_worker_that_never_had_a_job() -> None:
     """A bad spec stops `bench run` before any job: its workers, still warming up, stop now."""
     import time
@@ -373,15 +395,22 @@ def test_closing_does_not_wait_for_a_worker_that_never_had_a_job() -> None:
 def test_a_started_local_backend_runs_on_the_workers_it_started() -> None:
     """`start` makes the pool at once; the next run uses it, and closes it at its end."""
     backend = LocalBackend(1)
-    backend.start()
-    pool = backend._pool
-    assert pool is not None and len(pool.workers) == 1
-    spec = load_spec("frozenlake-single", "quick")
-    trials = [t for t in expand(spec) if t.agent.name == "random"][:2]
-    rows = [row for _, row in backend.run(spec, trials)]
-    assert [row["status"] for row in rows] == ["ok", "ok"]
-    assert pool.workers[0].used and backend._pool is None
-    assert pool.workers[0].process.exitcode is not None  # stopped: no `with` kept it
+    try:
+        backend.start()
+        pool = backend._pool
+        assert pool is not None and len(pool.workers) == 1
+        spec = load_spec("frozenlake-single", "quick")
+        trials = [t for t in expand(spec) if t.agent.name == "random"][:2]
+        rows = [row for _, row in backend.run(spec, trials)]
+        assert [row["status"] for row in rows] == ["ok", "ok"]
+        assert pool.workers[0].used and backend._pool is None
+        assert pool.workers[0].process.exitcode is not None  # stopped: no `with` kept it
+        backend.start()  # a run with nothing to play stops the workers started for it too
+        pool = backend._pool
+        assert list(backend.run(spec, [])) == [] and backend._pool is None
+        assert pool is not None and pool.workers[0].process.exitcode is not None
+    finally:
+        backend.close()
 
 
 @pytest.mark.parametrize("user_setting", [None, "3"])

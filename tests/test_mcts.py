@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -588,27 +589,25 @@ def test_the_kernels_walk_known_edges_only_for_a_step_registered_deterministic()
     assert ask(table) is False
 
 
-def _first_exceeding(probs: list[float], u: float) -> int:
-    """The Python model's rule: the first outcome whose running total exceeds ``u``.
+class _Draw:
+    """A generator stand-in whose every draw is ``u``."""
 
-    Else (the probabilities sum to ``u`` or less) the last outcome of positive probability.
-    """
-    total = 0.0
-    for k, p in enumerate(probs):
-        total += p
-        if u < total:
-            return k
-    return max(k for k, p in enumerate(probs) if p > 0.0)
+    def __init__(self, u: float) -> None:
+        self.u = u
+
+    def random(self) -> float:
+        return self.u
 
 
 @needs_numba
-def test_compiled_table_steps_pick_the_first_outcome_whose_total_exceeds_the_draw():
+def test_compiled_table_steps_pick_the_outcome_the_python_model_picks():
     """The tree's step scans, the rollout counts; both give the Python model's outcome.
 
     The tree's step scans the cumulative probabilities for the first above the draw, the
     rollout counts those at or below it. Every edge: a draw equal to a cumulative probability or
-    one float either side of it, outcomes of zero probability, a row whose probabilities sum
-    below the draw (the last outcome of positive probability).
+    one float either side of it, outcomes of zero probability, and a row whose probabilities
+    sum below the draw (no table model accepts one; the kernels take the last outcome of
+    positive probability, the Python model's rule when rounding leaves its total below).
     """
     from types import SimpleNamespace
 
@@ -625,25 +624,53 @@ def test_compiled_table_steps_pick_the_first_outcome_whose_total_exceeds_the_dra
         [0.0, u, 1.0 - u],
         [0.0, 0.0, 1.0],
         [1.0, 0.0, 0.0],
-        [0.25 * u, 0.5 * u, 0.0],  # sums below u (no table model accepts it; the kernel must)
+        [0.25 * u, 0.5 * u, 0.0],
     ]
     probs = np.array(rows)[:, None, :]  # one action
     shape = probs.shape
+    states = len(rows)
     outcomes = TabularOutcomes(
         probs,
-        np.zeros(shape, np.int64),
+        (np.arange(states)[:, None, None] + np.arange(1, 4)) % (states - 1),  # one per outcome
         np.broadcast_to(np.arange(3.0), shape).copy(),  # the reward numbers the outcome
         np.ones(shape, np.bool_),  # every outcome ends the episode: a rollout is one step
     )
+    valid = TabularOutcomes(*(part[:-1] for part in dataclasses.astuple(outcomes)[:4]))
+    python_model = OutcomeTableModel(valid, 0, _Draw(u))  # type: ignore[arg-type]
+    expected = [python_model.transition(s, 0) for s in range(states - 1)]
+    expected.append((int(outcomes.next_states[-1, 0, 1]), 1.0, True))  # the last positive one
+    assert [reward for _, reward, _ in expected] == [2, 2, 0, 2, 2, 0, 1]  # the edges are met
     data = _tabular_data(SimpleNamespace(outcomes=outcomes))
     step = numba.njit(lambda data, state, out, rng: family_step(data, state, out, 0, rng))
-    for s, row in enumerate(rows):
-        expected = _first_exceeding(row, u)
+    for s, (next_state, reward, terminal) in enumerate(expected):
         state = np.array([float(s)])
         returns, steps = kernels().repeated_rollouts(
             data, state, 1, 1, 5, 1.0, np.random.default_rng(7), np.random.default_rng(0)
         )
-        assert (returns[0], steps) == (expected, 1), (s, row)
-        reward, done = step(data, state, np.empty(1), np.random.default_rng(7))
-        assert (reward, done) == (expected, True), (s, row)
-    assert [_first_exceeding(r, u) for r in rows] == [2, 2, 0, 2, 2, 0, 1]  # the edges are met
+        assert (returns[0], steps) == (reward, 1), s
+        out = np.empty(1)
+        assert step(data, state, out, np.random.default_rng(7)) == (reward, terminal), s
+        assert out[0] == next_state, s
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    ("row", "bad"),
+    [([0.5, np.nan, 0.5], "nan"), ([0.5, -0.25, 0.75], "-0.25"), ([0.0, 0.0, 0.0], "0.0")],
+)
+def test_a_compiled_table_refuses_a_row_the_python_model_could_not_draw_from(row, bad):
+    """A NaN, a negative probability or a row without a positive one is refused, named.
+
+    The kernels would pick an outcome there that no draw gives in the Python model.
+    """
+    from types import SimpleNamespace
+
+    from ns_pz.agents.search.compiled import _tabular_data
+
+    probs = np.array([[[1.0, 0.0, 0.0]], [row]])
+    shape = probs.shape
+    outcomes = TabularOutcomes(
+        probs, np.zeros(shape, np.int64), np.zeros(shape), np.zeros(shape, np.bool_)
+    )
+    with pytest.raises(ValueError, match=rf"outcomes\.probs\[1, 0\] = .*{bad}"):
+        _tabular_data(SimpleNamespace(outcomes=outcomes))

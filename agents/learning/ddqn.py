@@ -255,6 +255,9 @@ def train_ddqn(
 ) -> tuple[dict[str, np.ndarray], dict]:
     """Train a Double DQN in ``env`` (a stationary env at θ_0) for ``args.total_steps`` steps.
 
+    Steps go to ``env.process`` directly, not through ``env.step``: the same transitions, but
+    no rendering and no subclass's ``step`` (resets still go through ``env.reset``).
+
     Everything random comes from ``seed``, split by :func:`training_seeds` into independent
     streams: the env's episodes, ε-greedy and replay sampling (a numpy generator), the network
     initialisation.

@@ -212,6 +212,41 @@ def generic_rollout(data, state, num_actions, depth, gamma, model_rng, search_rn
 
 
 # --- built-in families ----------------------------------------------------------------------
+@numba.njit(cache=CACHE)
+def pack_table(probs, next_states, rewards, terminals):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """:class:`~.compiled.TabularData`'s array from an outcome table's four arrays.
+
+    Each row's cumulative probability is the running total of its probabilities in order (the
+    Python model's), infinite from the last outcome of positive probability on.
+
+    Returns:
+        ``(table, s, a)``: ``s, a`` are ``-1, -1``, or the first row that is no distribution to
+        draw from (a negative or NaN probability, or none positive); the table is then unfinished.
+    """
+    num_states, num_actions, num_outcomes = probs.shape
+    table = np.empty((num_states, num_actions, num_outcomes, 4))
+    for s in range(num_states):
+        for a in range(num_actions):
+            total = 0.0
+            last = -1
+            for k in range(num_outcomes):
+                p = probs[s, a, k]
+                if not p >= 0.0:
+                    return table, s, a
+                if p > 0.0:
+                    last = k
+                total += p
+                table[s, a, k, CUMULATIVE] = total
+                table[s, a, k, NEXT_STATE] = next_states[s, a, k]
+                table[s, a, k, REWARD] = rewards[s, a, k]
+                table[s, a, k, TERMINAL] = 1.0 if terminals[s, a, k] else 0.0
+            if last < 0:
+                return table, s, a
+            for k in range(last, num_outcomes):
+                table[s, a, k, CUMULATIVE] = np.inf
+    return table, -1, -1
+
+
 @numba.njit(cache=CACHE, inline="always")
 def tabular_step(data, state, out, action, rng):  # type: ignore[no-untyped-def]  # pragma: no cover
     """One uniform draw picks the first outcome whose cumulative probability exceeds it.

@@ -156,6 +156,8 @@ class LocalBackend(Backend):
         schedule = Schedule(spec, trials, training)
         shown = training is not None and training.shown
         if schedule.done:
+            if not self._keep:  # workers from start() stop at the end of this run, as promised
+                self._stop(clean=True)
             return
         pool, self._pool = self._pool or Pool(self.workers, _CANNOT_START, warm_up_worker), None
         clean = False

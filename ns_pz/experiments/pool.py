@@ -23,8 +23,9 @@ from ns_pz.workers import die_with_parent, worker_context
 class Worker:
     """One worker process: what it runs now and what it has run (its warm labels).
 
-    ``warm_up`` (a module-level function: the worker imports it) runs in the new process once
-    it has said it started, before its first job.
+    ``warm_up`` (a module-level function) is pickled by reference, so the new process imports
+    its module as it starts, before it says it has started; it calls the function afterwards,
+    before its first job.
     """
 
     def __init__(self, index: int, warm_up: Callable[[], None] | None = None) -> None:
@@ -84,8 +85,9 @@ class Outcome:
 class Pool:
     """``size`` workers; :meth:`submit` a job to an idle one, :meth:`wait` for results.
 
-    Each worker, and each one started in place of a dead one, first calls ``warm_up`` (see
-    :class:`Worker`); jobs submitted meanwhile wait for it.
+    Each worker first calls ``warm_up`` (see :class:`Worker`); jobs submitted meanwhile wait for
+    it. A worker started in place of a dead one does not: the warm-up is only a head start, and
+    one that killed its process would otherwise kill every replacement too.
 
     Raises (from :meth:`wait`):
         RuntimeError: A worker ended before any worker started (see ``cannot_start``).
@@ -94,7 +96,6 @@ class Pool:
     def __init__(
         self, size: int, cannot_start: str, warm_up: Callable[[], None] | None = None
     ) -> None:
-        self.warm_up = warm_up
         self.workers = [Worker(index, warm_up) for index in range(size)]
         self.cannot_start = cannot_start
         self._any_started = False
@@ -119,7 +120,7 @@ class Pool:
         except OSError:  # it died while idle: a fresh one takes the job
             worker.exitcode()
             worker.conn.close()
-            worker = self.workers[worker.index] = Worker(worker.index, self.warm_up)
+            worker = self.workers[worker.index] = Worker(worker.index)
             worker.conn.send((function, args))
         worker.job, worker.used = job, True
         return worker
@@ -152,7 +153,7 @@ class Pool:
             how = f"before they started (one {how_it_ended(code)})"
             raise RuntimeError(self.cannot_start.format(how=how))
         worker.conn.close()
-        self.workers[worker.index] = Worker(worker.index, self.warm_up)
+        self.workers[worker.index] = Worker(worker.index)
         return Outcome(worker, worker.job, died=True, exitcode=code)
 
     def close(self, clean: bool) -> None:
