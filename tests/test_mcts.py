@@ -674,3 +674,18 @@ def test_a_compiled_table_refuses_a_row_the_python_model_could_not_draw_from(row
     )
     with pytest.raises(ValueError, match=rf"outcomes\.probs\[1, 0\] = .*{bad}"):
         _tabular_data(SimpleNamespace(outcomes=outcomes))
+
+
+@needs_numba
+def test_a_compiled_table_refuses_arrays_of_other_shapes():
+    """The kernels read the four arrays unchecked: one of another shape is named first."""
+    from types import SimpleNamespace
+
+    from ns_pz.agents.search.compiled import _tabular_data
+
+    shape = (2, 1, 1)
+    outcomes = TabularOutcomes(
+        np.ones(shape), np.zeros(shape, np.int64), np.zeros((2, 1)), np.zeros(shape, np.bool_)
+    )
+    with pytest.raises(ValueError, match=r"outcomes\.rewards has shape \(2, 1\), probs has"):
+        _tabular_data(SimpleNamespace(outcomes=outcomes))

@@ -276,7 +276,8 @@ def _tabular_data(model: Any) -> TabularData:
     Raises:
         ValueError: A row of probabilities that is no distribution the Python model could draw
             from (a NaN, a negative entry, no positive entry), where the kernels would pick an
-            outcome it never would, or a table that is not ``[states, actions, outcomes >= 1]``.
+            outcome it never would; a table that is not ``[states, actions, outcomes >= 1]``, or
+            whose arrays differ in shape.
     """
     table = model.outcomes
     probs = np.asarray(table.probs, dtype=np.float64)
@@ -284,12 +285,17 @@ def _tabular_data(model: Any) -> TabularData:
         raise ValueError(
             f"outcomes.probs has shape {probs.shape}; expected [states, actions, outcomes >= 1]"
         )
-    packed, s, a = kernels().pack_table(
-        probs,
-        np.asarray(table.next_states, dtype=np.int64),
-        np.asarray(table.rewards, dtype=np.float64),
-        np.asarray(table.terminals, dtype=np.bool_),
-    )
+    parts = {
+        "next_states": np.asarray(table.next_states, dtype=np.int64),
+        "rewards": np.asarray(table.rewards, dtype=np.float64),
+        "terminals": np.asarray(table.terminals, dtype=np.bool_),
+    }
+    for name, part in parts.items():  # the kernel reads them unchecked, as probs is read
+        if part.shape != probs.shape:
+            raise ValueError(
+                f"outcomes.{name} has shape {part.shape}, probs has {probs.shape}; they must agree"
+            )
+    packed, s, a = kernels().pack_table(probs, *parts.values())
     if s >= 0:
         raise ValueError(
             f"outcomes.probs[{s}, {a}] = {probs[s, a].tolist()} must be non-negative numbers, "
