@@ -324,7 +324,9 @@ def _warm_up_for_a_minute() -> None:
 
 def _die_warming_up() -> None:
     import os
+    import time
 
+    time.sleep(2)  # the test's first job reaches the worker before it dies
     os._exit(3)
 
 

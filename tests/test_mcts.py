@@ -689,3 +689,35 @@ def test_a_compiled_table_refuses_arrays_of_other_shapes():
     )
     with pytest.raises(ValueError, match=r"outcomes\.rewards has shape \(2, 1\), probs has"):
         _tabular_data(SimpleNamespace(outcomes=outcomes))
+
+
+@needs_numba
+def test_a_compiled_table_holds_the_python_models_running_totals():
+    """The cumulative probabilities are the Python model's running totals, bit for bit.
+
+    Summed outcome by outcome, as its loop sums; infinite from the last outcome of positive
+    probability on. Next states out of range are refused.
+    """
+    import itertools
+    from types import SimpleNamespace
+
+    from ns_pz.agents.search.compiled import CUMULATIVE, _tabular_data
+
+    rng = np.random.default_rng(11)
+    probs = rng.random((6, 3, 7)).astype(np.float32) * (rng.random((6, 3, 7)) < 0.7)
+    probs[:, :, 0] += 1e-3  # no row without a positive entry
+    probs /= probs.sum(axis=2, keepdims=True)
+    shape = probs.shape
+    outcomes = TabularOutcomes(
+        probs, rng.integers(6, size=shape), np.zeros(shape), np.zeros(shape, np.bool_)
+    )
+    table = _tabular_data(SimpleNamespace(outcomes=outcomes)).table
+    for s, a in itertools.product(range(6), range(3)):
+        row = probs[s, a].tolist()
+        last = max(k for k, p in enumerate(row) if p > 0.0)
+        totals = list(itertools.accumulate(row))  # 0.0 + row[0] is row[0]: the model's loop
+        assert table[s, a, :last, CUMULATIVE].tolist() == totals[:last]
+        assert np.isinf(table[s, a, last:, CUMULATIVE]).all()
+    bad = TabularOutcomes(probs, np.full(shape, 6), np.zeros(shape), np.zeros(shape, np.bool_))
+    with pytest.raises(ValueError, match=r"outcomes\.next_states must lie in \[0, 6\)"):
+        _tabular_data(SimpleNamespace(outcomes=bad))

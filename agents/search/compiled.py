@@ -249,7 +249,9 @@ def compile_model(model: Any, backend: str) -> CompiledModel | None:
         backend: ``"auto"`` (compiled where possible), ``"compiled"`` (required) or ``"python"``.
 
     Raises:
-        ValueError: ``backend`` is unknown, or ``"compiled"`` was asked for and is not possible.
+        ValueError: ``backend`` is unknown, or ``"compiled"`` was asked for and is not possible,
+            or the model's outcome table is one the compiled search cannot draw from as the
+            Python model does (see :func:`_tabular_data`).
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend={backend!r} is not a backend; allowed: {list(BACKENDS)}")
@@ -276,8 +278,9 @@ def _tabular_data(model: Any) -> TabularData:
     Raises:
         ValueError: A row of probabilities that is no distribution the Python model could draw
             from (a NaN, a negative entry, no positive entry), where the kernels would pick an
-            outcome it never would; a table that is not ``[states, actions, outcomes >= 1]``, or
-            whose arrays differ in shape.
+            outcome it never would; a table that is not ``[states, actions, outcomes >= 1]``,
+            whose arrays differ in shape, or whose next states are no states of it (the kernels
+            would read outside it).
     """
     table = model.outcomes
     probs = np.asarray(table.probs, dtype=np.float64)
@@ -295,6 +298,12 @@ def _tabular_data(model: Any) -> TabularData:
             raise ValueError(
                 f"outcomes.{name} has shape {part.shape}, probs has {probs.shape}; they must agree"
             )
+    next_states = parts["next_states"]
+    if next_states.size and (next_states.min() < 0 or next_states.max() >= probs.shape[0]):
+        raise ValueError(
+            f"outcomes.next_states must lie in [0, {probs.shape[0]}); they hold "
+            f"{next_states.min()} .. {next_states.max()}"
+        )
     packed, s, a = kernels().pack_table(probs, *parts.values())
     if s >= 0:
         raise ValueError(
