@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 from collections import deque
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -330,36 +332,40 @@ def _die_warming_up() -> None:
     os._exit(3)
 
 
-def _first_outcome(pool: Any) -> Any:
-    return pool.wait()[0]  # a worker's first message (it started) is not an outcome
+@contextlib.contextmanager
+def _one_worker(warm_up: Any) -> Iterator[Callable[..., Any]]:
+    """A pool of one worker that warms up with ``warm_up``, stopped at the end.
+
+    ``play(job, function, *args)`` submits to it and returns the job's outcome.
+    """
+    from ns_pz.experiments.pool import Pool
+
+    pool = Pool(1, "cannot start: {how}", warm_up)
+
+    def play(job: str, function: Callable[..., Any], *args: Any) -> Any:
+        pool.submit(pool.idle()[0], job, function, *args)
+        return pool.wait()[0]  # a worker's first message (it started) is not an outcome
+
+    try:
+        yield play
+    finally:
+        pool.close(clean=True)
 
 
 def test_a_worker_warms_up_before_its_first_job() -> None:
     """The warm-up runs in the worker itself, before the job sent meanwhile."""
     import os
 
-    from ns_pz.experiments.pool import Pool
-
-    pool = Pool(1, "cannot start: {how}", _mark_warm)
-    try:
-        pool.submit(pool.idle()[0], "job", os.getenv, "NS_PZ_TEST_WARMED_UP")
-        outcome = _first_outcome(pool)
-        assert (outcome.job, outcome.died, outcome.result) == ("job", False, "yes")
-    finally:
-        pool.close(clean=True)
+    with _one_worker(_mark_warm) as play:
+        outcome = play("job", os.getenv, "NS_PZ_TEST_WARMED_UP")
+    assert (outcome.job, outcome.died, outcome.result) == ("job", False, "yes")
 
 
 def test_a_warm_up_that_fails_leaves_the_worker_serving() -> None:
     """A warm-up is only a head start: its failure is not the job's, nor the worker's end."""
-    from ns_pz.experiments.pool import Pool
-
-    pool = Pool(1, "cannot start: {how}", _fail_to_warm_up)
-    try:
-        pool.submit(pool.idle()[0], "job", abs, -3)
-        outcome = _first_outcome(pool)
-        assert (outcome.job, outcome.died, outcome.result) == ("job", False, 3)
-    finally:
-        pool.close(clean=True)
+    with _one_worker(_fail_to_warm_up) as play:
+        outcome = play("job", abs, -3)
+    assert (outcome.job, outcome.died, outcome.result) == ("job", False, 3)
 
 
 def test_a_worker_that_dies_warming_up_is_replaced_by_one_that_does_not_warm_up() -> None:
@@ -367,18 +373,11 @@ def test_a_worker_that_dies_warming_up_is_replaced_by_one_that_does_not_warm_up(
 
     The replacement skips the warm-up, which would kill it again.
     """
-    from ns_pz.experiments.pool import Pool
-
-    pool = Pool(1, "cannot start: {how}", _die_warming_up)
-    try:
-        pool.submit(pool.idle()[0], "first", abs, -1)
-        outcome = _first_outcome(pool)
-        assert (outcome.job, outcome.died, outcome.exitcode) == ("first", True, 3)
-        pool.submit(pool.idle()[0], "second", abs, -2)
-        outcome = _first_outcome(pool)
-        assert (outcome.job, outcome.died, outcome.result) == ("second", False, 2)
-    finally:
-        pool.close(clean=True)
+    with _one_worker(_die_warming_up) as play:
+        first = play("first", abs, -1)
+        second = play("second", abs, -2)
+    assert (first.job, first.died, first.exitcode) == ("first", True, 3)
+    assert (second.job, second.died, second.result) == ("second", False, 2)
 
 
 def test_closing_does_not_wait_for_a_worker_that_never_had_a_job() -> None:

@@ -284,8 +284,9 @@ def train_ddqn(
     episode_return = 0.0
 
     # The loop drives the env's process itself: the view's step would also build the
-    # observation's notification arrays and the info dict, which training never reads (about a
-    # third of a step's cost on FrozenLake). The dynamics are the same calls, in the same order.
+    # observation's notification arrays and the info dict, which training never reads (an env
+    # step took 4.0 µs through the view, 2.5 µs so, on FrozenLake). The dynamics are the same
+    # calls, in the same order.
     process, check, observe = env.process, env.family.check_action, env.family.observe
     observation, _ = env.reset(seed=env_seed)
     x = features(space, observation["state"])
