@@ -14,6 +14,10 @@ Measured in one run on one machine:
   seeded): compiled (the network inside the kernel), reference Python (whose forward pass is the
   kernel's where numba is installed) and reference Python with numpy's forward pass (the
   Python path as it was before the compiled one);
+* compiled AlphaZero decisions along a CartPole episode (the search's own actions from the start
+  state, 200 decisions or to the episode's end), with the network's memo of its last search
+  kept (the default) and cleared before every decision, and the share of new nodes whose
+  evaluation the memo held;
 * the model step in the rollout loop, in ns per step: compiled rollouts (uniform random actions,
   no tree) against the reference loop over ``model.transition``;
 * compile time: a fresh process's first compiled search with an empty numba cache, then again
@@ -209,9 +213,41 @@ def alphazero_decision(
     root = model.get_state()
 
     def decide(i: int) -> object:
+        function.search_memo = None  # a fresh decision: nothing remembered of the last one
         return puct(model, root, np.random.default_rng(i), evaluate, settings, backend)
 
     return decide
+
+
+def alphazero_episode(budget: float, steps: int, remember: bool) -> tuple[float, float]:
+    """Compiled PUCT decisions along one CartPole episode: ``(mean seconds, share remembered)``.
+
+    The episode plays the search's action from the start state for ``steps`` decisions (or
+    until it ends); ``remember=False`` clears the network's memo of the last search before each
+    decision, so every node is evaluated.
+    """
+    env = ns_pz.make_gym(SETTINGS["CartPole"]["id"], **SETTINGS["CartPole"]["kwargs"])
+    env.reset(seed=0)
+    family = env.family
+    args = AlphaZeroArgs().for_family(family)
+    settings = dataclasses.replace(args.puct_settings(), iterations=max(2, int(500 * budget)))
+    function = random_policy_value(family.observation_space, args.hidden or (), 2)
+    rng = np.random.default_rng(0)
+    seconds, nodes, remembered, decisions = 0.0, 0, 0, 0
+    for _ in range(steps):
+        model = env.planning_model()
+        if not remember:
+            function.search_memo = None
+        start = time.perf_counter()
+        result = puct(model, model.get_state(), rng, model_evaluation(function, model), settings)
+        seconds += time.perf_counter() - start
+        decisions += 1
+        nodes += int(result.stats["nodes"]) - 1
+        remembered += int(result.stats["remembered"])
+        _, _, terminated, truncated, _ = env.step(result.action)
+        if terminated or truncated:
+            break
+    return seconds / decisions, remembered / max(1, nodes)
 
 
 def measure_alphazero(budget: float, repeats: int) -> None:
@@ -237,6 +273,15 @@ def measure_alphazero(budget: float, repeats: int) -> None:
         f"  {label:30s} {_ms(compiled):>10s} {_ms(reference):>10s} {_ms(numpy_net):>15s} "
         f"{ratio:>14s}"
     )
+    if not numba_available():
+        return
+    steps = 10 if budget < 1.0 else 200
+    print(f"\nCompiled AlphaZero decisions along a CartPole episode ({steps} or to its end)")
+    print(f"  {'memo of the last search':30s} {'decision':>10s} {'nodes found in it':>18s}")
+    for remember in (False, True):
+        seconds, share = alphazero_episode(budget, steps, remember)
+        label = "kept" if remember else "cleared before each decision"
+        print(f"  {label:30s} {_ms(seconds):>10s} {share:>17.0%}")
 
 
 def measure_steps(names: list[str], steps: int) -> None:

@@ -374,6 +374,93 @@ def test_compiled_puct_on_cartpole_builds_the_python_tree(state, noise, depth, n
         assert python.num_nodes > (1 if depth == 0 else 10)
 
 
+@pytest.mark.parametrize("noise", [0.0, 0.5])
+def test_searches_along_an_episode_reuse_evaluations_and_build_the_python_trees(noise):
+    """The network's memo of its last search: found again along an episode, never a change.
+
+    Each decision searches the state the last one's action led to, so much of the new tree was
+    in the last one; those nodes' evaluations come from the memo (``remembered``), and every
+    tree is still the Python path's (which has no memo).
+    """
+    import copy
+
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import model_evaluation
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=4)
+    function = _random_cartpole_function(2, trunk=(16, 16))
+    settings = PUCTSettings(120, 50, 1.4, 1.0, dirichlet_alpha=0.5, noise=noise)
+    remembered = []
+    for step in range(12):
+        model = env.planning_model()
+        evaluate = model_evaluation(function, model)
+        root = model.get_state()
+        python = puct_tree(
+            copy.deepcopy(model), root, np.random.default_rng(step), evaluate, settings, "python"
+        )
+        compiled = puct_tree(model, root, np.random.default_rng(step), evaluate, settings)
+        np.testing.assert_array_equal(compiled.visits, python.visits)
+        np.testing.assert_array_equal(compiled.q, python.q)
+        assert (compiled.num_nodes, compiled.simulated_steps) == (
+            python.num_nodes,
+            python.simulated_steps,
+        )
+        inputs, priors, values = function.search_memo
+        assert len(inputs) == len(priors) == len(values) <= compiled.num_nodes - 1
+        remembered.append(compiled.remembered)
+        _, _, terminated, truncated, _ = env.step(int(np.argmax(python.visits)))
+        if terminated or truncated:
+            break
+    assert len(remembered) >= 6 and remembered[0] == 0
+    assert sum(remembered) >= 10, remembered
+
+
+def test_a_fresh_network_remembers_nothing_of_another():
+    """The memo belongs to one network: another (other weights) evaluates every node itself."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.puct import model_evaluation
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    settings = PUCTSettings(60, 20, 1.4, 1.0)
+    first = _random_cartpole_function(0, trunk=(8,))
+    root = model.get_state()
+    puct_tree(model, root, np.random.default_rng(0), model_evaluation(first, model), settings)
+    evaluated = len(first.search_memo[0])
+    again = puct_tree(
+        model, root, np.random.default_rng(0), model_evaluation(first, model), settings
+    )
+    other = _random_cartpole_function(1, trunk=(8,))
+    fresh = puct_tree(
+        model, root, np.random.default_rng(0), model_evaluation(other, model), settings
+    )
+    assert again.remembered == evaluated > 0  # the same search: every evaluation found
+    assert fresh.remembered == 0 and other.search_memo is not None
+
+
+def test_the_memo_index_finds_each_input_bit_for_bit():
+    """Rows found where they are, duplicates at their first row, anything else not at all."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning import _puct_kernels as kernels
+
+    rng = np.random.default_rng(0)
+    keys = rng.normal(size=(300, 4)).astype(np.float32).astype(np.float64)
+    keys[7] = keys[3]  # a duplicate
+    keys[8] = 0.0
+    bits = keys.view(np.int64)
+    slots = kernels._memo_slots(bits)
+    assert len(slots) >= 2 * len(keys) and len(slots) & (len(slots) - 1) == 0
+    for i in range(len(keys)):
+        assert kernels._memo_find(slots, bits, bits[i]) == (3 if i == 7 else i)
+    negative_zero = np.full(4, -0.0)  # equal to row 8 as numbers, not as bits
+    for probe in (negative_zero, np.nextafter(keys[5], np.inf), rng.normal(size=4)):
+        assert kernels._memo_find(slots, bits, probe.view(np.int64)) == -1
+    empty = np.empty((0, 4)).view(np.int64)
+    assert kernels._memo_find(kernels._memo_slots(empty), empty, bits[0]) == -1
+
+
 def test_auto_searches_cartpole_compiled():
     """backend='auto' takes the kernel for CartPole with a network: the same tree, faster."""
     pytest.importorskip("numba")

@@ -260,6 +260,61 @@ def network(weights, layout, parts, x):  # type: ignore[no-untyped-def]  # pragm
     return priors, value
 
 
+# --- the last search's evaluations, found again by their network input --------------------------
+#: An odd 64-bit multiplier (2^64 / golden ratio, as a signed int64) that spreads the hash's bits.
+_SPREAD = -7046029254386353131
+
+
+@numba.njit(cache=True)
+def _input_hash(bits, mask):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """A slot in ``[0, mask]`` for one network input, given as its float64s' bit patterns."""
+    h = 0
+    for j in range(bits.shape[0]):
+        h = (h ^ bits[j]) * _SPREAD  # int64 arithmetic wraps around
+    return (h ^ (h >> 32)) & mask
+
+
+@numba.njit(cache=True)
+def _same_bits(a, b):  # type: ignore[no-untyped-def]  # pragma: no cover
+    for j in range(a.shape[0]):
+        if a[j] != b[j]:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _memo_slots(key_bits):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """An open-addressing index of the rows of ``key_bits`` (``[count, dim]`` int64 bits).
+
+    A power-of-two table at most half full, -1 where empty; a row equal to an earlier one is
+    left out (the earlier one is found).
+    """
+    size = 16
+    while size < 2 * key_bits.shape[0]:
+        size *= 2
+    slots = np.full(size, -1, dtype=np.int64)
+    mask = size - 1
+    for i in range(key_bits.shape[0]):
+        slot = _input_hash(key_bits[i], mask)
+        while slots[slot] >= 0 and not _same_bits(key_bits[slots[slot]], key_bits[i]):
+            slot = (slot + 1) & mask
+        if slots[slot] < 0:
+            slots[slot] = i
+    return slots
+
+
+@numba.njit(cache=True)
+def _memo_find(slots, key_bits, bits):  # type: ignore[no-untyped-def]  # pragma: no cover
+    """The row of ``key_bits`` equal to ``bits`` bit for bit, or -1."""
+    mask = slots.shape[0] - 1
+    slot = _input_hash(bits, mask)
+    while slots[slot] >= 0:
+        if _same_bits(key_bits[slots[slot]], bits):
+            return slots[slot]
+        slot = (slot + 1) & mask
+    return -1
+
+
 @numba.njit(cache=True)
 def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
     data,
@@ -269,6 +324,9 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
     weights,
     layout,
     parts,
+    memo_inputs,
+    memo_priors,
+    memo_values,
     iterations,
     depth,
     c,
@@ -282,8 +340,18 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
     ``root`` is the root's ``float64`` state vector; a node's network input is its state vector
     rounded to float32 (the family's observation) and back. Children of a chance node are keyed
     by the exact next state vector; a deterministic family's known edge is walked without
-    simulating it again (see :func:`~ns_pz.agents.search._kernels.uct`). Returns ``(root
-    visits, root Q, nodes, simulated steps)``.
+    simulating it again (see :func:`~ns_pz.agents.search._kernels.uct`).
+
+    ``memo_inputs`` ``[count, dim]``, ``memo_priors`` ``[count, num_actions]`` and
+    ``memo_values`` ``[count]`` are earlier evaluations of *this* network (the memo a previous
+    call returned; ``count`` may be 0): a new node whose network input equals one of
+    ``memo_inputs`` bit for bit takes its priors and value rather than evaluating the network
+    again, which would compute the same bits (the forward pass is a function of its input).
+
+    Returns ``(root visits, root Q, nodes, simulated steps, inputs, priors, values, found)``:
+    ``inputs``/``priors``/``values`` are this tree's evaluated nodes (every non-terminal one but
+    the root, whose priors may carry noise), the memo for the next call; ``found`` counts the
+    nodes taken from the memo.
     """
     num_actions = root_priors.shape[0]
     dim = root.shape[0]
@@ -314,6 +382,12 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
     h = np.empty(width)
     ping = np.empty(width)
     pong = np.empty(width)
+    inputs = np.empty((capacity, dim))  # each node's network input
+    input_bits = inputs.view(np.int64)
+    x_bits = x.view(np.int64)
+    memo_bits = memo_inputs.view(np.int64)
+    memo_slots = _memo_slots(memo_bits)
+    found = 0
     states[0] = root
     value[0] = root_value
     priors[0] = root_priors
@@ -369,9 +443,16 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
                 else:
                     for j in range(dim):
                         x[j] = np.float64(np.float32(sampled[j]))
-                    value[child] = network_into(
-                        weights, layout, parts, x, priors[child], h, ping, pong
-                    )
+                    input_bits[child] = x_bits
+                    remembered = _memo_find(memo_slots, memo_bits, x_bits)
+                    if remembered >= 0:
+                        priors[child] = memo_priors[remembered]
+                        value[child] = memo_values[remembered]
+                        found += 1
+                    else:
+                        value[child] = network_into(
+                            weights, layout, parts, x, priors[child], h, ping, pong
+                        )
                     q[child, :] = value[child]
                 leaf = value[child]
                 break
@@ -383,4 +464,14 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
         lo, hi = _backup(
             path_nodes, path_actions, path_rewards, length, leaf, gamma, n, visits, w, q, lo, hi
         )
-    return visits[0].copy(), q[0].copy(), num_nodes, simulated
+    evaluated = np.flatnonzero(~terminal[1:num_nodes]) + 1
+    return (
+        visits[0].copy(),
+        q[0].copy(),
+        num_nodes,
+        simulated,
+        inputs[evaluated],
+        priors[evaluated],
+        value[evaluated],
+        found,
+    )

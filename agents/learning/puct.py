@@ -25,9 +25,13 @@ over the states (:class:`TabularEvaluation`, one batched forward pass). On a mod
 has a compiled step over state vectors and observes the state vector as float32 (CartPole) the
 network runs inside the kernel (:class:`VectorEvaluation`); so that both paths build the same
 tree, the Python path then evaluates the network with the kernel's own forward pass, not
-numpy's (whose matrix products round differently). On CartPole at the specs' full size (500
-simulations) a decision takes about 3 ms compiled against 75-90 ms in Python
-(``benchmarks/bench_search.py``).
+numpy's (whose matrix products round differently). The network keeps its evaluations of its
+last compiled search (:attr:`PolicyValueFunction.search_memo`), and the next search takes a
+node's from there when its network input is the same bits: along an episode whose model
+predicts the real next state, the next tree runs through much of the last one. On CartPole at
+the specs' full size (500 simulations) a fresh decision takes about 2 ms compiled against
+50-90 ms in Python, and about 1 ms along an episode with a trained network
+(``benchmarks/bench_search.py``, ``docs/speed.md``).
 """
 
 from __future__ import annotations
@@ -61,6 +65,8 @@ Evaluation = Callable[[Any], tuple[np.ndarray, float]]
 class PolicyValueFunction:
     """A trained policy/value network as numpy: ``(softmax priors, value)`` of an observation.
 
+    The weights are fixed once it is built (:meth:`packed` and the search memo rely on it).
+
     Args:
         weights: Exported ``trunk.*``, ``policy.0.*`` and ``value.0.*`` arrays.
         observation_space: The base environment's observation space.
@@ -72,6 +78,10 @@ class PolicyValueFunction:
         self.value = NumpyMLP(weights, "value")
         self.space = observation_space
         self._packed: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self.search_memo: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        """The compiled search's last evaluations, ``(inputs, priors, values)``: the next
+        search takes a node's from here when its input is the same bits (see
+        :func:`ns_pz.agents.learning._puct_kernels.puct_vector`)."""
 
     def __call__(self, observation: Any) -> tuple[np.ndarray, float]:
         """Priors ``[num_actions]`` and the value of one base observation."""
@@ -174,6 +184,8 @@ class PUCTTree:
         simulated_steps: Model transitions made.
         priors: ``[num_actions]`` the root's priors as searched: the network's, mixed with
             the Dirichlet noise (the only node that gets it).
+        remembered: Nodes whose priors and value came from the network's memo of its last
+            search rather than a forward pass (compiled search on vector states only).
     """
 
     visits: np.ndarray
@@ -182,6 +194,7 @@ class PUCTTree:
     num_nodes: int
     simulated_steps: int
     priors: np.ndarray
+    remembered: int = 0
 
     def policy_target(self, temperature: float) -> np.ndarray:
         """``N(root, ·)^(1/T)`` normalised (computed in log space, so small T is safe)."""
@@ -294,16 +307,20 @@ def puct_tree(
         generators = (compiled.rng, rng)
         root_priors = np.asarray(priors, dtype=np.float64)
         if isinstance(evaluate, VectorEvaluation):
-            root = np.ascontiguousarray(compiled.family.to_vector(root_state), dtype=np.float64)
-            network = (root_priors, float(value), *evaluate.function.packed())
-            visits, q, nodes, simulated = _kernels().puct_vector(
-                compiled.data, root, *network, *search, *generators
+            function = evaluate.function
+            vector = compiled.family.to_vector(root_state)
+            vector = np.ascontiguousarray(vector, dtype=np.float64)
+            network = (root_priors, float(value), *function.packed())
+            memo = function.search_memo or _empty_memo(len(vector), num_actions)
+            visits, q, nodes, simulated, *kept, found = _kernels().puct_vector(
+                compiled.data, vector, *network, *memo, *search, *generators
             )
-        else:
-            table = (evaluate.priors, evaluate.values)  # type: ignore[attr-defined]  # checked
-            visits, q, nodes, simulated = _kernels().puct_tabular(
-                compiled.data, int(root_state), root_priors, *table, *search, *generators
-            )
+            function.search_memo = tuple(kept)  # type: ignore[assignment]  # three arrays
+            return PUCTTree(visits, q, value, int(nodes), int(simulated), priors, int(found))
+        table = (evaluate.priors, evaluate.values)  # type: ignore[attr-defined]  # checked
+        visits, q, nodes, simulated = _kernels().puct_tabular(
+            compiled.data, int(root_state), root_priors, *table, *search, *generators
+        )
         return PUCTTree(visits, q, value, int(nodes), int(simulated), priors)
     root = _Node(root_state, False, priors, value, num_actions)
     bounds = [np.inf, -np.inf] if settings.normalise_q else None
@@ -358,6 +375,7 @@ def puct(
         "iterations": float(settings.iterations),
         "nodes": float(tree.num_nodes),
         "simulated_steps": float(tree.simulated_steps),
+        "remembered": float(tree.remembered),
     }
     return SearchResult(action, tree.q.copy(), tree.visits.copy(), stats)
 
@@ -374,6 +392,11 @@ def model_evaluation(function: PolicyValueFunction, model: Any) -> Evaluation:
         priors, values = function.batch(np.eye(int(space.n), dtype=np.float32))
         return TabularEvaluation(priors, values)
     return VectorEvaluation(function, model.family.observe)
+
+
+def _empty_memo(dim: int, num_actions: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A search memo that remembers nothing yet."""
+    return np.empty((0, dim)), np.empty((0, num_actions)), np.empty(0)
 
 
 def _compiled(model: Any, evaluate: Evaluation, backend: str) -> CompiledModel | None:
