@@ -392,6 +392,110 @@ def test_compiled_and_numpy_gradient_steps_agree_bit_for_bit(inputs, hidden, one
     assert compiled.steps == plain.steps == 60
 
 
+def _blas_or_skip():
+    """NumPy's BLAS routines for compiled steps, or skip (no numba, or NumPy without OpenBLAS)."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.numpy_blas import blas_routines
+
+    if blas_routines() is None:
+        pytest.skip("NumPy's BLAS is not the OpenBLAS its wheels bundle")
+
+
+def _filled_buffer(rng, inputs, num_actions, one_hot, size=200):
+    buffer = ReplayBuffer(size, inputs)
+    batch = _random_batch(rng, size, inputs, num_actions, one_hot)
+    for i in range(size):
+        buffer.add(
+            batch.features[i],
+            int(batch.actions[i]),
+            float(batch.rewards[i]),
+            batch.next_features[i],
+            bool(batch.terminated[i]),
+        )
+    return buffer
+
+
+@pytest.mark.parametrize(
+    ("inputs", "hidden", "one_hot", "batch_size"),
+    [(16, (64,), True, 64), (5, (7, 6), False, 9), (4, (3, 4, 5), False, 2)],
+)
+def test_whole_compiled_steps_are_numpys_bit_for_bit(inputs, hidden, one_hot, batch_size):
+    """Replay steps and greedy actions through NumPy's BLAS from compiled code: NumPy's bits.
+
+    Three paths from the same weights, buffer and generator: whole steps compiled (the
+    products through NumPy's own BLAS routines), only the elementwise parts compiled, NumPy
+    alone. Losses, weights, Adam's moments, the target and every greedy action are equal.
+    """
+    _blas_or_skip()
+    args = DDQNArgs(hidden=hidden, gamma=0.9, tau=0.05, weight_decay=1e-3, batch_size=batch_size)
+    buffer = _filled_buffer(np.random.default_rng(1), inputs, 3, one_hot)
+    probes = _random_batch(np.random.default_rng(2), 16, inputs, 3, one_hot).features
+    for rows in (batch_size, 16, 1):  # the check on random data passed: compiled, not NumPy
+        assert ddqn.products_for([inputs, *hidden, 3], rows) is not None
+    runs = {}
+    for path in ("whole", "elementwise", "numpy"):
+        with pytest.MonkeyPatch.context() as patch:
+            if path == "elementwise":
+                patch.setattr(ddqn, "products_for", lambda widths, rows: None)
+            if path == "numpy":
+                patch.setattr(ddqn, "compiled_step", lambda: None)
+            learner = new_learner(inputs, 3, args, 5)
+            w, b = learner.layers[-1]
+            w[:, 1], b[1] = w[:, 0], b[0]  # actions 0 and 1 tie until a step tells them apart
+            learner.sync_target()
+            rng = np.random.default_rng(3)
+            losses, actions = [], []
+            for _ in range(40):
+                losses.append(learner.replay_step(buffer, rng))
+                actions.append([learner.greedy(x) for x in probes])
+                actions.append(learner.greedy_rows(probes).tolist())
+                actions.append(learner.greedy_rows(probes[:1]).tolist())
+            runs[path] = (losses, actions, learner)
+    for path in ("elementwise", "numpy"):
+        assert runs[path][0] == runs["whole"][0], path
+        assert runs[path][1] == runs["whole"][1], path
+        for name in ("params", "grad", "m", "v", "target"):
+            np.testing.assert_array_equal(
+                getattr(runs[path][2], name), getattr(runs["whole"][2], name), err_msg=name
+            )
+
+
+def test_a_network_with_a_width_of_one_keeps_numpys_products():
+    """NumPy multiplies by a vector through other routines: such networks are not compiled."""
+    pytest.importorskip("numba")
+    assert ddqn.products_for([4, 1, 3], 64) is None
+    assert ddqn.products_for([4, 8, 1], 1) is None
+    learner = new_learner(4, 1, DDQNArgs(hidden=(8,), batch_size=4), 0)
+    buffer = _filled_buffer(np.random.default_rng(0), 4, 1, False, size=10)
+    assert np.isfinite(learner.replay_step(buffer, np.random.default_rng(0)))
+    assert learner.greedy(np.zeros(4, dtype=np.float32)) == 0
+
+
+def test_without_numpys_openblas_the_learner_keeps_numpys_products(monkeypatch):
+    """A NumPy built against another BLAS: no compiled products, the same learner otherwise."""
+    pytest.importorskip("numba")
+    monkeypatch.setattr(ddqn, "blas_routines", lambda: None)
+    ddqn._checked_products.cache_clear()
+    try:
+        assert ddqn.products_for([6, 5, 3], 9) is None
+    finally:
+        ddqn._checked_products.cache_clear()
+
+
+def test_the_blas_routines_are_found_where_numpy_bundles_openblas():
+    """NumPy's PyPI wheels bundle scipy-openblas64: both routines are found there."""
+    from ns_pz.agents.learning.numpy_blas import blas_routines
+    from threadpoolctl import threadpool_info
+
+    bundled = any(
+        "scipy_openblas64" in (library.get("filepath") or "") for library in threadpool_info()
+    )
+    if not bundled:
+        pytest.skip("this NumPy does not bundle scipy-openblas64")
+    routines = blas_routines()
+    assert routines is not None and routines.shape == (2,) and (routines != 0).all()
+
+
 def test_the_compiled_target_picks_the_first_best_and_a_nan_as_argmax_does():
     """``td_delta``'s choice of the next action is ``argmax``'s, NaN and ties included."""
     kernels = ddqn.compiled_step()

@@ -247,7 +247,7 @@ class FineTunedDDQNAgent(Agent):
         """One Double-DQN step on a sampled batch (none while the buffer is empty)."""
         if not self.buffer.size:
             return 0
-        self.learner.gradient_step(self.buffer.sample(self.args.batch_size, self.rng))
+        self.learner.replay_step(self.buffer, self.rng)
         return 1
 
     def _greedy_returns(self, model: Any, start: Any, seed: int) -> tuple[np.ndarray, int]:
@@ -278,7 +278,7 @@ class FineTunedDDQNAgent(Agent):
             x = np.stack([features(self.space, observe(states[i])) for i in live])
             if played < episodes:
                 x = np.repeat(x, episodes, axis=0)
-            actions = self.learner.q(x).argmax(axis=1).tolist()
+            actions = self.learner.greedy_rows(x).tolist()
             if played < episodes:  # copies of one row: its action
                 actions = actions[:1]
             still = []

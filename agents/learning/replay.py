@@ -55,7 +55,14 @@ class ReplayBuffer:
 
     def sample(self, batch_size: int, rng: np.random.Generator) -> Batch:
         """``batch_size`` transitions drawn uniformly with replacement."""
-        index = rng.integers(self.size, size=batch_size)
+        return self.batch(self.sample_index(batch_size, rng))
+
+    def sample_index(self, batch_size: int, rng: np.random.Generator) -> np.ndarray:
+        """The rows :meth:`sample` would take: ``batch_size`` drawn uniformly with replacement."""
+        return rng.integers(self.size, size=batch_size)
+
+    def batch(self, index: np.ndarray) -> Batch:
+        """The transitions in rows ``index``."""
         return Batch(
             self.features[index],
             self.actions[index],

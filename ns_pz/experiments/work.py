@@ -30,6 +30,7 @@ from ns_pz.agents.learning.artefacts import (
     read_manifest,
     save,
 )
+from ns_pz.agents.learning.ddqn import warm_up as warm_up_ddqn
 from ns_pz.agents.learning.trained import Needed
 from ns_pz.agents.search.compiled import warm_up
 from ns_pz.experiments.progress import Progress
@@ -144,11 +145,13 @@ def warm_up_worker() -> None:
     """A fresh worker's head start, before its first job: every agent's code, and numba.
 
     Importing this module imports the agents; numba starts in
-    :func:`~ns_pz.agents.search.compiled.warm_up`. A worker started with
+    :func:`~ns_pz.agents.search.compiled.warm_up`, and Double DQN's compiled step loads in
+    :func:`~ns_pz.agents.learning.ddqn.warm_up`. A worker started with
     :meth:`~ns_pz.experiments.backends.LocalBackend.start` does this while the runner still
     loads the spec, so the first network's training starts at once.
     """
     warm_up()
+    warm_up_ddqn()
 
 
 def run_batch(spec: ExperimentSpec, trials: Sequence[Trial]) -> list[dict[str, Any]]:
