@@ -337,3 +337,93 @@ def test_on_cartpole_the_scoring_episodes_are_copies_and_one_is_played_for_all()
     played, played_steps = agent._greedy_returns(model, model.get_state(), seed=7)
     np.testing.assert_array_equal(played, returns)
     assert played_steps == steps
+
+
+@pytest.mark.parametrize("masspole", [0.1, 1.5])
+def test_on_cartpole_compiled_scoring_returns_what_python_scoring_does(masspole, monkeypatch):
+    """The scoring episode played in compiled code (CartPole's step, NumPy's BLAS) is Python's.
+
+    Random networks from random states under the model's θ, episodes that end and episodes cut
+    at ``max_episode_steps``: the same returns and step counts.
+    """
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning import ddqn
+    from ns_pz.agents.learning.ddqn_wn import FineTunedDDQNAgent
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", params={"masspole": masspole})
+    env.reset(seed=0)
+    model = env.planning_model()
+    rng = np.random.default_rng(int(masspole * 10))
+    cut = ended = 0
+    for trial in range(12):
+        weights = {
+            "q.0.weight": rng.normal(size=(16, 4)),
+            "q.0.bias": rng.normal(size=16) * 0.1,
+            "q.1.weight": rng.normal(size=(2, 16)),
+            "q.1.bias": rng.normal(size=2) * 0.1,
+        }
+        args = DDQNArgs(hidden=(16,), max_episode_steps=40)
+        agent = FineTunedDDQNAgent(
+            weights,
+            env.family.observation_space,
+            args,
+            model_steps=0,
+            gradient_steps=0,
+            epsilon=0.0,
+            evaluation_episodes=2 + trial % 3,
+        )
+        agent.reset(np.random.default_rng(trial))
+        if agent.learner.products(agent.evaluation_episodes) is None:
+            pytest.skip("NumPy's BLAS is not the OpenBLAS its wheels bundle")
+        assert agent._compiled_scoring(model) is not None
+        start = tuple(rng.uniform(-0.05, 0.05, size=4))
+        compiled = agent._greedy_returns(model, start, seed=trial)
+        with monkeypatch.context() as patch:
+            patch.setattr(agent, "_compiled_scoring", lambda model: None)
+            python = agent._greedy_returns(model, start, seed=trial)
+        np.testing.assert_array_equal(compiled[0], python[0])
+        assert compiled[1] == python[1]
+        cut += python[0][0] == 40.0
+        ended += python[0][0] < 40.0
+    assert cut and ended
+    assert ddqn.compiled_step() is not None
+
+
+def test_compiled_scoring_sees_the_observation_rounded_to_float32(monkeypatch):
+    """A network that tells a position from its float32 rounding scores as in Python.
+
+    The hidden unit is ``relu(x - 0.1)``: 0 at the state's x = 0.1 itself, about 1.5e-9 at its
+    float32 observation, so the first action is 1 (pushing right) only if the network sees the
+    observation, as Python's scoring does.
+    """
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.ddqn_wn import FineTunedDDQNAgent
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    model = env.planning_model()
+    weights = {
+        "q.0.weight": np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]),
+        "q.0.bias": np.array([-0.1, 0.0]),
+        "q.1.weight": np.array([[0.0, 0.0], [1e12, 0.0]]),
+        "q.1.bias": np.zeros(2),
+    }
+    agent = FineTunedDDQNAgent(
+        weights,
+        env.family.observation_space,
+        DDQNArgs(hidden=(2,), max_episode_steps=100),
+        model_steps=0,
+        gradient_steps=0,
+        epsilon=0.0,
+        evaluation_episodes=2,
+    )
+    agent.reset(np.random.default_rng(0))
+    if agent._compiled_scoring(model) is None:
+        pytest.skip("no compiled scoring here (numba or NumPy's OpenBLAS missing)")
+    start = (0.1, 0.0, -0.02, 0.0)
+    compiled = agent._greedy_returns(model, start, seed=0)
+    with monkeypatch.context() as patch:
+        patch.setattr(agent, "_compiled_scoring", lambda model: None)
+        python = agent._greedy_returns(model, start, seed=0)
+    np.testing.assert_array_equal(compiled[0], python[0])
+    assert compiled[1] == python[1]

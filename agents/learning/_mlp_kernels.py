@@ -23,6 +23,7 @@ import numba
 import numpy as np
 from llvmlite import ir
 from ns_pz.agents.search import numba_cache
+from ns_pz.agents.search._kernels import family_step
 from numba.core import types
 from numba.extending import intrinsic
 
@@ -378,3 +379,33 @@ def ddqn_step(  # type: ignore[no-untyped-def]  # pragma: no cover
         tau,
     )
     return squares
+
+
+@numba.njit(cache=True)
+def greedy_episode(data, start, blas, layout, params, rows, max_steps, rng):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """A greedy episode of the MLP from ``start`` in a family's compiled step: ``(return, steps)``.
+
+    As ``FineTunedDDQNAgent._greedy_returns`` plays one episode of a family whose step draws
+    nothing and whose observation is its state vector rounded to float32 (CartPole): each step
+    the network sees the observation ``rows`` times (the scoring's batch of copies, whose
+    product rounds as that batch's does), takes row 0's first best action and steps
+    ``family_step`` under ``data``'s θ, for at most ``max_steps`` steps or to a terminal state.
+    """
+    dim = start.shape[0]
+    state = start.copy()
+    following = np.empty(dim)
+    x = np.empty((rows, dim))
+    total = 0.0
+    steps = 0
+    for _ in range(max_steps):
+        for r in range(rows):
+            for j in range(dim):
+                x[r, j] = np.float64(np.float32(state[j]))
+        action = _first_best(forward_rows(blas, layout, params, x)[0])
+        reward, done = family_step(data, state, following, action, rng)
+        total += reward
+        steps += 1
+        state, following = following, state
+        if done:
+            break
+    return total, steps

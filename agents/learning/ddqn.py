@@ -151,7 +151,7 @@ class DoubleDQN(MLPLearner):
         """Q-values of feature rows ``x`` (``[batch, inputs]`` or ``[inputs]``)."""
         return forward(self.target_layers if target else self.layers, self.as_input(x))
 
-    def _products(self, rows: int) -> np.ndarray | None:
+    def products(self, rows: int) -> np.ndarray | None:
         """:func:`products_for` this network on ``rows`` rows (asked once per count)."""
         if rows not in self._checked:
             self._checked[rows] = products_for(self.widths, rows)
@@ -159,7 +159,7 @@ class DoubleDQN(MLPLearner):
 
     def greedy(self, x: np.ndarray) -> int:
         """The online network's best action for one feature vector (ties: the first)."""
-        blas = self._products(1)
+        blas = self.products(1)
         if blas is not None:
             return int(compiled_step().greedy_action(blas, self.layout, self.params, x))
         return int(self.q(x).argmax())
@@ -169,7 +169,7 @@ class DoubleDQN(MLPLearner):
 
         Ties go to the first; compiled where :func:`products_for` allows (the same actions).
         """
-        blas = self._products(len(x))
+        blas = self.products(len(x))
         if blas is not None:
             return compiled_step().greedy_rows(blas, self.layout, self.params, x)
         return self.q(x).argmax(axis=1)
@@ -185,7 +185,7 @@ class DoubleDQN(MLPLearner):
             The loss before the step.
         """
         index = buffer.sample_index(self.args.batch_size, rng)
-        blas = self._products(len(index))
+        blas = self.products(len(index))
         if blas is None:
             return self.gradient_step(buffer.batch(index))
         beta1, beta2 = ADAM_BETAS

@@ -59,11 +59,12 @@ from typing import Any
 import numpy as np
 from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
-from ns_pz.agents.learning.ddqn import DoubleDQN
+from ns_pz.agents.learning.ddqn import DoubleDQN, compiled_step
 from ns_pz.agents.learning.features import features
 from ns_pz.agents.learning.mlp import one_blas_thread
 from ns_pz.agents.learning.q_agent import check_fine_tuning
 from ns_pz.agents.learning.replay import ReplayBuffer
+from ns_pz.agents.search.compiled import compile_model, kernels
 
 #: A candidate network replaces the kept one only if its mean scoring return is higher by more
 #: than this many standard errors of the paired differences (a one-sided test at about 2.5 %).
@@ -268,6 +269,21 @@ class FineTunedDDQNAgent(Agent):
         # A step that never draws plays every episode alike: one is played, and the network
         # still sees a row per episode (a product over fewer rows may round differently).
         played = 1 if getattr(family, "deterministic_step", False) else episodes
+        if played == 1:
+            compiled = self._compiled_scoring(model)
+            if compiled is not None:
+                data, vector, blas = compiled
+                total, steps = compiled_step().greedy_episode(  # type: ignore[union-attr]
+                    data,
+                    vector(start),
+                    blas,
+                    self.learner.layout,
+                    self.learner.params,
+                    episodes,
+                    self.args.max_episode_steps,
+                    rng,
+                )
+                return np.full(episodes, float(total)), int(steps) * episodes
         states = [start] * played
         returns = np.zeros(played)
         live = list(range(played))
@@ -292,6 +308,24 @@ class FineTunedDDQNAgent(Agent):
         if played < episodes:
             return np.repeat(returns, episodes), steps * episodes
         return returns, steps
+
+    def _compiled_scoring(self, model: Any) -> tuple[Any, Any, np.ndarray] | None:
+        """``(data, to_vector, blas)`` to score in compiled code, or None for Python.
+
+        Possible where the family has a compiled step and observes its state vector as float32
+        (CartPole) and the network's products can run compiled on the scoring's rows
+        (:meth:`~ns_pz.agents.learning.ddqn.DoubleDQN.products`): the same returns, in one
+        call per scoring instead of a NumPy forward pass and a Python step per step.
+        """
+        blas = self.learner.products(self.evaluation_episodes)
+        if blas is None:
+            return None
+        compiled = compile_model(model, "auto")
+        if compiled is None or not compiled.family.float32_observation:
+            return None
+        kernels()  # the families' compiled steps register before the scoring kernel compiles
+        vector = compiled.family.to_vector
+        return compiled.data, lambda state: np.asarray(vector(state), dtype=np.float64), blas
 
     def __repr__(self) -> str:
         budget = (
