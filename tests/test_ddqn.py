@@ -355,6 +355,15 @@ def _random_batch(rng, size, inputs, num_actions, one_hot):
     )
 
 
+def _tied_learner(inputs, args):
+    """A learner of three actions whose actions 0 and 1 tie until a step tells them apart."""
+    learner = new_learner(inputs, 3, args, 5)
+    w, b = learner.layers[-1]
+    w[:, 1], b[1] = w[:, 0], b[0]
+    learner.sync_target()
+    return learner
+
+
 @pytest.mark.parametrize(
     ("inputs", "hidden", "one_hot", "weight_decay"),
     [(6, (5,), True, 1e-2), (4, (7, 6), False, 0.0), (3, (4, 4, 4), False, 1e-4)],
@@ -375,10 +384,7 @@ def test_compiled_and_numpy_gradient_steps_agree_bit_for_bit(inputs, hidden, one
         with pytest.MonkeyPatch.context() as patch:
             if path == "numpy":
                 patch.setattr(ddqn, "compiled_step", lambda: None)
-            learner = new_learner(inputs, 3, args, 5)
-            w, b = learner.layers[-1]
-            w[:, 1], b[1] = w[:, 0], b[0]  # actions 0 and 1 tie until a step tells them apart
-            learner.sync_target()
+            learner = _tied_learner(inputs, args)
             losses, grads = [], []
             for batch in batches:
                 losses.append(learner.gradient_step(batch))
@@ -439,10 +445,7 @@ def test_whole_compiled_steps_are_numpys_bit_for_bit(inputs, hidden, one_hot, ba
                 patch.setattr(ddqn, "products_for", lambda widths, rows: None)
             if path == "numpy":
                 patch.setattr(ddqn, "compiled_step", lambda: None)
-            learner = new_learner(inputs, 3, args, 5)
-            w, b = learner.layers[-1]
-            w[:, 1], b[1] = w[:, 0], b[0]  # actions 0 and 1 tie until a step tells them apart
-            learner.sync_target()
+            learner = _tied_learner(inputs, args)
             rng = np.random.default_rng(3)
             losses, actions = [], []
             for _ in range(40):
@@ -540,3 +543,25 @@ def test_training_is_the_same_with_and_without_numba():
         patch.setattr(ddqn, "compiled_step", lambda: None)
         plain, _ = train_ddqn(training_env(env, args.max_episode_steps), args, 3)
     assert all(np.array_equal(compiled[k], plain[k]) for k in compiled)
+
+
+def test_whole_compiled_steps_refuse_what_numpys_products_refuse():
+    """Inputs of the wrong size and actions past the outputs: errors, not memory read blind."""
+    _blas_or_skip()
+    learner = new_learner(5, 3, DDQNArgs(hidden=(7,), batch_size=8), 0)
+    for x in (np.zeros(4, dtype=np.float32), np.zeros(6, dtype=np.float32)):
+        with pytest.raises(ValueError, match="inputs=5"):
+            learner.greedy(x)
+        with pytest.raises(ValueError, match="inputs=5"):
+            learner.greedy_rows(np.stack([x, x]))
+    with pytest.raises(ValueError, match="inputs=5"):
+        learner.replay_step(
+            _filled_buffer(np.random.default_rng(0), 6, 3, False), np.random.default_rng(0)
+        )
+    buffer = _filled_buffer(np.random.default_rng(0), 5, 3, False, size=10)
+    buffer.actions[:] = 3  # past the last of three actions
+    before = learner.params.copy()
+    with pytest.raises(IndexError):
+        learner.replay_step(buffer, np.random.default_rng(0))
+    assert learner.steps == 0
+    np.testing.assert_array_equal(learner.params, before)

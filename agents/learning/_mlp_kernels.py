@@ -184,6 +184,8 @@ def _matmul(blas, a, b, out):  # type: ignore[no-untyped-def]  # pragma: no cove
     """``out = a @ b`` for C-contiguous ``a`` ``[m, k]`` and ``b`` ``[k, n]``, as numpy.matmul."""
     m, k = a.shape
     n = b.shape[1]
+    if b.shape[0] != k or out.shape[0] != m or out.shape[1] != n:
+        raise ValueError("matmul: the operands' shapes do not chain")
     if m == 1:
         _dgemv_row(blas[1], k, n, b, a, out)
     else:
@@ -195,6 +197,8 @@ def _matmul_at(blas, a, b, out):  # type: ignore[no-untyped-def]  # pragma: no c
     """``out = a.T @ b`` for C-contiguous ``a`` ``[k, m]`` and ``b`` ``[k, n]`` (``k`` >= 2)."""
     k, m = a.shape
     n = b.shape[1]
+    if b.shape[0] != k or out.shape[0] != m or out.shape[1] != n:
+        raise ValueError("matmul: the operands' shapes do not chain")
     _dgemm(blas[0], _TRANS, _NO_TRANS, m, n, k, a, m, b, n, out, n)
 
 
@@ -203,6 +207,8 @@ def _matmul_bt(blas, a, b, out):  # type: ignore[no-untyped-def]  # pragma: no c
     """``out = a @ b.T`` for C-contiguous ``a`` ``[m, k]`` (``m`` >= 2) and ``b`` ``[n, k]``."""
     m, k = a.shape
     n = b.shape[0]
+    if b.shape[1] != k or out.shape[0] != m or out.shape[1] != n:
+        raise ValueError("matmul: the operands' shapes do not chain")
     _dgemm(blas[0], _NO_TRANS, _TRANS, m, n, k, a, k, b, k, out, n)
 
 

@@ -158,9 +158,14 @@ class DoubleDQN(MLPLearner):
         return self._checked[rows]
 
     def greedy(self, x: np.ndarray) -> int:
-        """The online network's best action for one feature vector (ties: the first)."""
+        """The online network's best action for one feature vector (ties: the first).
+
+        Raises:
+            ValueError: ``x`` is not one vector of the network's input size.
+        """
         blas = self.products(1)
         if blas is not None:
+            self._check_rows(x, 1)
             return int(compiled_step().greedy_action(blas, self.layout, self.params, x))
         return int(self.q(x).argmax())
 
@@ -168,11 +173,23 @@ class DoubleDQN(MLPLearner):
         """The online network's best action for each row of ``x`` (``[rows, inputs]``).
 
         Ties go to the first; compiled where :func:`products_for` allows (the same actions).
+
+        Raises:
+            ValueError: ``x`` is not ``[rows, inputs]`` for the network's input size.
         """
         blas = self.products(len(x))
         if blas is not None:
+            self._check_rows(x, 2)
             return compiled_step().greedy_rows(blas, self.layout, self.params, x)
         return self.q(x).argmax(axis=1)
+
+    def _check_rows(self, x: np.ndarray, ndim: int) -> None:
+        """Refuse what NumPy's product would refuse (compiled code reads memory unchecked)."""
+        if np.ndim(x) != ndim or np.shape(x)[-1] != self.widths[0]:
+            raise ValueError(
+                f"x has shape {np.shape(x)}; the network takes "
+                f"{'[inputs]' if ndim == 1 else '[rows, inputs]'} with inputs={self.widths[0]}"
+            )
 
     def replay_step(self, buffer: ReplayBuffer, rng: np.random.Generator) -> float:
         """:meth:`gradient_step` on ``args.batch_size`` transitions sampled from ``buffer``.
@@ -183,13 +200,18 @@ class DoubleDQN(MLPLearner):
 
         Returns:
             The loss before the step.
+
+        Raises:
+            ValueError: The buffer's feature size is not the network's input size.
+            IndexError: A stored action past the network's outputs (as NumPy's indexing).
         """
         index = buffer.sample_index(self.args.batch_size, rng)
         blas = self.products(len(index))
         if blas is None:
             return self.gradient_step(buffer.batch(index))
+        self._check_rows(buffer.features, 2)
         beta1, beta2 = ADAM_BETAS
-        self.steps += 1
+        steps = self.steps + 1
         squares = compiled_step().ddqn_step(
             blas,
             self.layout,
@@ -210,10 +232,11 @@ class DoubleDQN(MLPLearner):
             beta1,
             beta2,
             ADAM_EPS,
-            1.0 - beta1**self.steps,
-            math.sqrt(1.0 - beta2**self.steps),
+            1.0 - beta1**steps,
+            math.sqrt(1.0 - beta2**steps),
             self.args.tau,
         )
+        self.steps = steps
         # np.mean's own sum and division: the loss has the NumPy path's bits
         return float(np.add.reduce(squares)) / len(squares)
 
