@@ -436,8 +436,13 @@ def test_a_fresh_network_remembers_nothing_of_another():
     fresh = puct_tree(
         model, root, np.random.default_rng(0), model_evaluation(other, model), settings
     )
+    python = puct_tree(
+        model, root, np.random.default_rng(0), model_evaluation(other, model), settings, "python"
+    )
     assert again.remembered == evaluated > 0  # the same search: every evaluation found
     assert fresh.remembered == 0 and other.search_memo is not None
+    np.testing.assert_array_equal(fresh.visits, python.visits)
+    np.testing.assert_array_equal(fresh.q, python.q)
 
 
 def test_the_memo_index_finds_each_input_bit_for_bit():

@@ -423,7 +423,7 @@ def _filled_buffer(rng, inputs, num_actions, one_hot, size=200):
 
 @pytest.mark.parametrize(
     ("inputs", "hidden", "one_hot", "batch_size"),
-    [(16, (64,), True, 64), (5, (7, 6), False, 9), (4, (3, 4, 5), False, 2)],
+    [(16, (64,), True, 64), (5, (7, 6), False, 9), (4, (3, 4, 5), False, 2), (8, (6, 5), False, 1)],
 )
 def test_whole_compiled_steps_are_numpys_bit_for_bit(inputs, hidden, one_hot, batch_size):
     """Replay steps and greedy actions through NumPy's BLAS from compiled code: NumPy's bits.
@@ -452,7 +452,10 @@ def test_whole_compiled_steps_are_numpys_bit_for_bit(inputs, hidden, one_hot, ba
                 losses.append(learner.replay_step(buffer, rng))
                 actions.append([learner.greedy(x) for x in probes])
                 actions.append(learner.greedy_rows(probes).tolist())
+                actions.append(learner.greedy_rows(np.asfortranarray(probes)).tolist())
                 actions.append(learner.greedy_rows(probes[:1]).tolist())
+                actions.append(learner.greedy_rows(probes[:0]).tolist())
+                actions.append([learner.greedy(probes[0].tolist())])
             runs[path] = (losses, actions, learner)
     for path in ("elementwise", "numpy"):
         assert runs[path][0] == runs["whole"][0], path
@@ -474,15 +477,29 @@ def test_a_network_with_a_width_of_one_keeps_numpys_products():
     assert learner.greedy(np.zeros(4, dtype=np.float32)) == 0
 
 
-def test_without_numpys_openblas_the_learner_keeps_numpys_products(monkeypatch):
-    """A NumPy built against another BLAS: no compiled products, the same learner otherwise."""
-    pytest.importorskip("numba")
-    monkeypatch.setattr(ddqn, "blas_routines", lambda: None)
-    ddqn._checked_products.cache_clear()
-    try:
-        assert ddqn.products_for([6, 5, 3], 9) is None
-    finally:
-        ddqn._checked_products.cache_clear()
+def test_without_numpys_openblas_the_learner_keeps_numpys_products():
+    """A NumPy built against another BLAS: no compiled products, and the same learning."""
+    _blas_or_skip()
+    args = DDQNArgs(hidden=(5,), batch_size=9)
+    buffer = _filled_buffer(np.random.default_rng(0), 6, 3, False)
+    probes = _random_batch(np.random.default_rng(1), 4, 6, 3, False).features
+    runs = []
+    for missing in (False, True):
+        with pytest.MonkeyPatch.context() as patch:
+            if missing:
+                patch.setattr(ddqn, "blas_routines", lambda: None)
+            ddqn._checked_products.cache_clear()
+            try:
+                assert (ddqn.products_for([6, 5, 3], 9) is None) == missing
+                learner = new_learner(6, 3, args, 0)
+                rng = np.random.default_rng(2)
+                losses = [learner.replay_step(buffer, rng) for _ in range(20)]
+                actions = learner.greedy_rows(probes).tolist()
+                runs.append((losses, actions, learner.params.copy()))
+            finally:
+                ddqn._checked_products.cache_clear()
+    assert runs[0][:2] == runs[1][:2]
+    np.testing.assert_array_equal(runs[0][2], runs[1][2])
 
 
 def test_the_blas_routines_are_found_where_numpy_bundles_openblas():

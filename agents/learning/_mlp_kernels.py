@@ -25,6 +25,7 @@ from llvmlite import ir
 from ns_pz.agents.search import numba_cache
 from ns_pz.agents.search._kernels import family_step
 from numba.core import types
+from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
 numba_cache.install()  # before the first cache=True below: caches go to a user folder
@@ -111,9 +112,19 @@ def _array_pointer(context, builder, array_type, array):  # type: ignore[no-unty
     return builder.bitcast(data, ir.IntType(8).as_pointer())
 
 
+def _require_c_float64(*arrays):  # type: ignore[no-untyped-def]
+    """Refuse, at compile time, an operand BLAS would misread: not C-contiguous float64."""
+    for array in arrays:
+        if not (isinstance(array, types.Array) and array.layout == "C"):
+            raise TypingError(f"BLAS operands must be C-contiguous arrays, not {array}")
+        if array.dtype != types.float64:
+            raise TypingError(f"BLAS operands must be float64, not {array.dtype}")
+
+
 @intrinsic
 def _dgemm(typingctx, address, trans_a, trans_b, m, n, k, a, lda, b, ldb, c, ldc):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """``c = op(a) op(b)`` (row-major; alpha 1, beta 0) by the ILP64 cblas_dgemm at ``address``."""
+    _require_c_float64(a, b, c)
     signature = types.void(address, trans_a, trans_b, m, n, k, a, lda, b, ldb, c, ldc)
 
     def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
@@ -149,6 +160,7 @@ def _dgemm(typingctx, address, trans_a, trans_b, m, n, k, a, lda, b, ldb, c, ldc
 @intrinsic
 def _dgemv_row(typingctx, address, k, n, a, x, y):  # type: ignore[no-untyped-def]  # pragma: no cover
     """``y = x @ a`` for ``a`` ``[k, n]`` row-major: numpy.matmul's dgemv for a row times it."""
+    _require_c_float64(a, x, y)
     signature = types.void(address, k, n, a, x, y)
 
     def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
@@ -235,7 +247,7 @@ def _affine(blas, w, b, h, z, relu):  # type: ignore[no-untyped-def]  # pragma: 
 
 @numba.njit(cache=True)
 def forward_rows(blas, layout, params, x):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """The MLP's outputs on rows ``x`` (``[rows, inputs]`` float64): ``mlp.forward``'s bits."""
+    """The MLP's outputs on rows ``x`` (``[rows, inputs]`` C-contiguous float64): NumPy's bits."""
     h = x
     last = layout.shape[0] - 1
     for i in range(layout.shape[0]):
@@ -257,8 +269,12 @@ def greedy_action(blas, layout, params, x):  # type: ignore[no-untyped-def]  # p
 
 @numba.njit(cache=True)
 def greedy_rows(blas, layout, params, x):  # type: ignore[no-untyped-def]  # pragma: no cover
-    """Each row's :func:`greedy_action` for feature rows ``x`` (``[rows, inputs]``)."""
-    q = forward_rows(blas, layout, params, x.astype(np.float64))
+    """Each row's :func:`greedy_action` for feature rows ``x`` (``[rows, inputs]``, any layout)."""
+    h = np.empty(x.shape)  # C-contiguous float64, whatever x is
+    for r in range(x.shape[0]):
+        for j in range(x.shape[1]):
+            h[r, j] = x[r, j]
+    q = forward_rows(blas, layout, params, h)
     actions = np.empty(q.shape[0], dtype=np.int64)
     for r in range(q.shape[0]):
         actions[r] = _first_best(q[r])

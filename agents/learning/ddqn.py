@@ -25,7 +25,8 @@ gradient, Adam, the Polyak update, the subnormal flushes) run as two compiled lo
 (:mod:`._mlp_kernels`) instead of about thirty NumPy calls. Where NumPy's bundled OpenBLAS is
 found too, the whole step and the greedy action are one compiled call each, their products
 through NumPy's own BLAS routines with the arguments numpy.matmul passes
-(:func:`products_for`, checked against NumPy on random data once per network shape). The
+(:func:`products_for`, checked against NumPy on random data once per network shape and row
+count). The
 network is the same bit for bit on every path (tested). The full FrozenLake network (200k steps)
 trained in 3.0 s whole-step compiled, against 5.3–5.7 s with the elementwise parts alone, on one
 core of the development machine.
@@ -163,9 +164,9 @@ class DoubleDQN(MLPLearner):
         Raises:
             ValueError: ``x`` is not one vector of the network's input size.
         """
+        x = self._checked_rows(x, 1)
         blas = self.products(1)
         if blas is not None:
-            self._check_rows(x, 1)
             return int(compiled_step().greedy_action(blas, self.layout, self.params, x))
         return int(self.q(x).argmax())
 
@@ -177,19 +178,24 @@ class DoubleDQN(MLPLearner):
         Raises:
             ValueError: ``x`` is not ``[rows, inputs]`` for the network's input size.
         """
-        blas = self.products(len(x))
+        x = self._checked_rows(x, 2)
+        blas = self.products(len(x)) if len(x) else None
         if blas is not None:
-            self._check_rows(x, 2)
             return compiled_step().greedy_rows(blas, self.layout, self.params, x)
         return self.q(x).argmax(axis=1)
 
-    def _check_rows(self, x: np.ndarray, ndim: int) -> None:
-        """Refuse what NumPy's product would refuse (compiled code reads memory unchecked)."""
-        if np.ndim(x) != ndim or np.shape(x)[-1] != self.widths[0]:
+    def _checked_rows(self, x: Any, ndim: int) -> np.ndarray:
+        """``x`` as an array, refused unless ``ndim``-dimensional with the network's input size.
+
+        The same on every path (compiled code would read memory unchecked).
+        """
+        x = np.asarray(x)
+        if x.ndim != ndim or x.shape[-1] != self.widths[0]:
             raise ValueError(
-                f"x has shape {np.shape(x)}; the network takes "
+                f"x has shape {x.shape}; the network takes "
                 f"{'[inputs]' if ndim == 1 else '[rows, inputs]'} with inputs={self.widths[0]}"
             )
+        return x
 
     def replay_step(self, buffer: ReplayBuffer, rng: np.random.Generator) -> float:
         """:meth:`gradient_step` on ``args.batch_size`` transitions sampled from ``buffer``.
@@ -206,10 +212,11 @@ class DoubleDQN(MLPLearner):
             IndexError: A stored action past the network's outputs (as NumPy's indexing).
         """
         index = buffer.sample_index(self.args.batch_size, rng)
-        blas = self.products(len(index))
+        # one row: NumPy multiplies by it through other routines than the compiled step's
+        blas = self.products(len(index)) if len(index) >= 2 else None
         if blas is None:
             return self.gradient_step(buffer.batch(index))
-        self._check_rows(buffer.features, 2)
+        self._checked_rows(buffer.features, 2)
         beta1, beta2 = ADAM_BETAS
         steps = self.steps + 1
         squares = compiled_step().ddqn_step(
@@ -331,11 +338,14 @@ def compiled_step() -> ModuleType | None:
 def warm_up() -> None:
     """Load the compiled step's kernels now, where numba and NumPy's OpenBLAS are.
 
-    A benchmark worker's head start: loading them costs about 0.35 s once a process on the
-    development machine, before the first network's training or fine-tuning.
+    A benchmark worker's head start: loading them costs about 0.4 s once a process on the
+    development machine, before the first network's training, fine-tuning or greedy action.
     """
-    for rows in (2, 1):
-        products_for((2, 2, 2), rows)
+    learner = new_learner(2, 2, DDQNArgs(hidden=(2,), batch_size=2), 0)
+    if learner.products(2) is None or learner.products(1) is None:
+        return
+    learner.greedy(np.zeros(2, dtype=np.float32))
+    learner.greedy_rows(np.zeros((2, 2), dtype=np.float32))
 
 
 def layer_layout(widths: Sequence[int]) -> np.ndarray:
@@ -352,19 +362,21 @@ def layer_layout(widths: Sequence[int]) -> np.ndarray:
 
 
 def products_for(widths: Sequence[int], rows: int) -> np.ndarray | None:
-    """NumPy's BLAS routines for compiled steps of the MLP ``widths`` on ``rows`` rows, or None.
+    """NumPy's BLAS routines for compiled code on the MLP ``widths`` and ``rows`` rows, or None.
 
-    None unless numba is installed, NumPy's OpenBLAS is found
-    (:func:`~ns_pz.agents.learning.numpy_blas.blas_routines`), every width is at least 2
-    (NumPy multiplies by a vector through other routines) and a check on random data, once per
-    shape, gave NumPy's bits (:func:`_agrees_with_numpy`).
+    ``rows`` rows: forward passes (greedy actions) on that many, and for 2 rows or more a
+    gradient step on a batch of that many. None unless numba is installed, NumPy's OpenBLAS is
+    found (:func:`~ns_pz.agents.learning.numpy_blas.blas_routines`), every width and ``rows``
+    is at least 1 and every width at least 2 (NumPy multiplies by a vector through other
+    routines), and a check on random data, once per shape and row count, gave NumPy's bits
+    (:func:`_agrees_with_numpy`).
     """
-    if compiled_step() is None or min(widths) < 2:
+    if compiled_step() is None or min(widths) < 2 or rows < 1:
         return None
     return _checked_products(tuple(widths), rows)
 
 
-@functools.cache
+@functools.lru_cache(maxsize=1024)
 def _checked_products(widths: tuple[int, ...], rows: int) -> np.ndarray | None:
     blas = blas_routines()
     if blas is None or not _agrees_with_numpy(blas, widths, rows):
@@ -373,31 +385,33 @@ def _checked_products(widths: tuple[int, ...], rows: int) -> np.ndarray | None:
 
 
 def _agrees_with_numpy(blas: np.ndarray, widths: tuple[int, ...], rows: int) -> bool:
-    """Whether the compiled step on ``rows`` rows (a batch; 1: a greedy action) is NumPy's.
+    """Whether compiled forward passes on ``rows`` rows, and steps on batches of them, are NumPy's.
 
-    Two learners from the same random weights take three steps on one random buffer (or act on
-    random rows), one through :meth:`DoubleDQN.gradient_step`'s NumPy products, one compiled;
-    every weight, moment, gradient and output is compared bit for bit.
+    Forward passes on random rows (one row also as a vector, as a greedy action takes it);
+    then, for 2 rows or more, two learners from the same random weights take three steps on
+    one random buffer, one through :meth:`DoubleDQN.gradient_step`'s NumPy products, one
+    compiled. Every output, weight, moment and gradient is compared bit for bit.
     """
     kernels = compiled_step()
     rng = np.random.default_rng(0)
     args = DDQNArgs(hidden=widths[1:-1], batch_size=max(rows, 2), weight_decay=1e-4)
     numpy_learner = DoubleDQN(widths, MLPLearner.initial_params(widths, rng), args)
-    layout = numpy_learner.layout
+    layout, params = numpy_learner.layout, numpy_learner.params
     with one_blas_thread():
+        for _ in range(3):
+            x = rng.normal(size=(rows, widths[0])).astype(np.float32)
+            got = kernels.forward_rows(blas, layout, params, x.astype(np.float64))
+            shapes = (x, x[0]) if rows == 1 else (x,)
+            for shaped in shapes:
+                expected = forward(numpy_learner.layers, numpy_learner.as_input(shaped))
+                if not np.array_equal(expected.reshape(got.shape), got):
+                    return False
         if rows == 1:
-            x = rng.normal(size=(8, 1, widths[0])).astype(np.float32)
-            params = numpy_learner.params
-            for row in x:  # a vector (greedy) and a one-row matrix (greedy_rows)
-                got = kernels.forward_rows(blas, layout, params, row.astype(np.float64))
-                for shaped in (row[0], row):
-                    expected = forward(numpy_learner.layers, numpy_learner.as_input(shaped))
-                    if not np.array_equal(expected.reshape(got.shape), got):
-                        return False
             return True
         compiled = DoubleDQN(widths, numpy_learner.params, args)
-        buffer = ReplayBuffer(4 * rows, widths[0])
-        for _ in range(4 * rows):
+        size = min(4 * rows, 256)  # sampled with replacement: a batch may outnumber it
+        buffer = ReplayBuffer(size, widths[0])
+        for _ in range(size):
             x, next_x = rng.normal(size=(2, widths[0])).astype(np.float32)
             buffer.add(x, int(rng.integers(widths[-1])), float(rng.normal()), next_x, False)
         for _ in range(3):

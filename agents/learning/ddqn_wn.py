@@ -312,8 +312,9 @@ class FineTunedDDQNAgent(Agent):
     def _compiled_scoring(self, model: Any) -> tuple[Any, Any, np.ndarray] | None:
         """``(data, to_vector, blas)`` to score in compiled code, or None for Python.
 
-        Possible where the family has a compiled step and observes its state vector as float32
-        (CartPole) and the network's products can run compiled on the scoring's rows
+        Possible where the family is one of ns_pz's with a compiled step that observes its state
+        vector as float32 (CartPole) and the network's products can run compiled on the
+        scoring's rows
         (:meth:`~ns_pz.agents.learning.ddqn.DoubleDQN.products`): the same returns, in one
         call per scoring instead of a NumPy forward pass and a Python step per step.
         """
@@ -323,6 +324,10 @@ class FineTunedDDQNAgent(Agent):
         compiled = compile_model(model, "auto")
         if compiled is None or not compiled.family.float32_observation:
             return None
+        # the cached kernel serves ns_pz's own families; a subclass elsewhere may step otherwise
+        for cls in (type(model.family), type(compiled.data)):
+            if not cls.__module__.startswith("ns_pz."):
+                return None
         kernels()  # the families' compiled steps register before the scoring kernel compiles
         vector = compiled.family.to_vector
         return compiled.data, lambda state: np.asarray(vector(state), dtype=np.float64), blas
