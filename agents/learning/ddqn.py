@@ -164,7 +164,8 @@ class DoubleDQN(MLPLearner):
         Raises:
             ValueError: ``x`` is not one vector of the network's input size.
         """
-        x = self._checked_rows(x, 1)
+        if type(x) is not np.ndarray or x.ndim != 1 or len(x) != self.widths[0]:
+            x = self._checked_rows(x, 1)  # called at every training step: the check inline first
         blas = self.products(1)
         if blas is not None:
             return int(compiled_step().greedy_action(blas, self.layout, self.params, x))
