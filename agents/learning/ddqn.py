@@ -24,11 +24,10 @@ Where numba is installed, a gradient step's elementwise parts (the target and th
 gradient, Adam, the Polyak update, the subnormal flushes) run as two compiled loops
 (:mod:`._mlp_kernels`) instead of about thirty NumPy calls. Where NumPy's bundled OpenBLAS is
 found too, the whole step and the greedy action are one compiled call each, their products
-through NumPy's own BLAS routines with the arguments numpy.matmul passes
-(:func:`products_for`, checked against NumPy on random data once per network shape and row
-count). The
-network is the same bit for bit on every path (tested). The full FrozenLake network (200k steps)
-trained in 3.0 s whole-step compiled, against 5.3–5.7 s with the elementwise parts alone, on one
+through NumPy's own BLAS routines with the arguments numpy.matmul passes (:func:`products_for`,
+checked against NumPy on random data once per network shape and row count). The network is
+the same bit for bit on every path (tested). The full FrozenLake network (200k steps) trained
+in 3.0–3.3 s whole-step compiled, against 5.3–5.7 s with the elementwise parts alone, on one
 core of the development machine.
 """
 
@@ -367,9 +366,9 @@ def products_for(widths: Sequence[int], rows: int) -> np.ndarray | None:
 
     ``rows`` rows: forward passes (greedy actions) on that many, and for 2 rows or more a
     gradient step on a batch of that many. None unless numba is installed, NumPy's OpenBLAS is
-    found (:func:`~ns_pz.agents.learning.numpy_blas.blas_routines`), every width and ``rows``
-    is at least 1 and every width at least 2 (NumPy multiplies by a vector through other
-    routines), and a check on random data, once per shape and row count, gave NumPy's bits
+    found (:func:`~ns_pz.agents.learning.numpy_blas.blas_routines`), ``rows`` is at least 1,
+    every width at least 2 (NumPy multiplies by a vector through other routines), and a check
+    on random data, once per shape and row count, gave NumPy's bits
     (:func:`_agrees_with_numpy`).
     """
     if compiled_step() is None or min(widths) < 2 or rows < 1:
