@@ -503,15 +503,16 @@ def test_without_numpys_openblas_the_learner_keeps_numpys_products():
 
 
 def test_the_blas_routines_are_found_where_numpy_bundles_openblas():
-    """NumPy's PyPI wheels bundle scipy-openblas64: both routines are found there."""
+    """Both routines are found where NumPy bundles a 64-bit-integer OpenBLAS.
+
+    NumPy's PyPI wheels do: scipy-openblas64 since NumPy 2, openblas64 for NumPy 1.26.
+    """
     from ns_pz.agents.learning.numpy_blas import blas_routines
     from threadpoolctl import threadpool_info
 
-    bundled = any(
-        "scipy_openblas64" in (library.get("filepath") or "") for library in threadpool_info()
-    )
+    bundled = any("openblas64_" in (library.get("filepath") or "") for library in threadpool_info())
     if not bundled:
-        pytest.skip("this NumPy does not bundle scipy-openblas64")
+        pytest.skip("this NumPy does not bundle a 64-bit-integer OpenBLAS")
     routines = blas_routines()
     assert routines is not None and routines.shape == (2,) and (routines != 0).all()
 
