@@ -35,6 +35,7 @@ from typing import Any
 import numba
 import numpy as np
 from ns_pz.agents.search import numba_cache
+from ns_pz.agents.search._pcg64 import inline_streams  # noqa: F401  # for the callers
 from ns_pz.agents.search.compiled import (
     CUMULATIVE,
     NEXT_STATE,
@@ -77,7 +78,8 @@ def register_step(
         step: A ``numba.njit(cache=True, inline="always")`` function ``step(data, state, out,
             action, rng) -> (reward, terminal)`` that writes the next state into ``out`` (a
             ``float64`` vector) and draws its randomness with ``rng.random()`` exactly as the
-            family's Python ``step`` does.
+            family's Python ``step`` does (``rng`` may be a ``PCG64Stream``, which has no
+            other method).
         rollout: Optional hot loop with the signature of :func:`generic_rollout`. The generic
             one calls ``step`` per transition; a family-specific loop that reads ``data`` once
             avoids numba's per-call reference counting of the arrays in ``data`` (tabular:

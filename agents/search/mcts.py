@@ -253,9 +253,14 @@ def compiled_uct(
     c: float,
     gamma: float,
 ) -> UCTTree:
-    """UCT in the numba kernel; same tree as :func:`reference_uct` for the same generators."""
+    """UCT in the numba kernel; same tree as :func:`reference_uct` for the same generators.
+
+    Generators on numpy's PCG64 are drawn from inline (:mod:`._pcg64`): the same numbers, and
+    the generators end where they would have.
+    """
     family = compiled.family
-    result = kernels_for(type(compiled.data)).uct(
+    module = kernels_for(type(compiled.data))
+    result = module.uct(
         compiled.data,
         family.to_vector(root_state),
         compiled.num_actions,
@@ -263,8 +268,7 @@ def compiled_uct(
         depth,
         float(c),
         float(gamma),
-        compiled.rng,
-        rng,
+        *module.inline_streams(compiled.rng, rng),
     )
     parent, parent_action, states, terminal, node_visits, visits, q, _, simulated = result
     return UCTTree(
