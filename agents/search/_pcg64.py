@@ -11,11 +11,13 @@ So the generator ends where it would have, and goes on from there in Python as i
 every number itself.
 
 The state's address and layout (two 128-bit integers, state then increment, low half first)
-are numpy's internals, so :func:`inline_streams` checks once per process that the inline draws
-equal numba's draws on the Generator, and that the Generator then continues from the same
-state; where they do not, it hands the generators back unchanged (the kernels draw through them
-as before). Only ``random()`` exists on a stream: the kernels and the family steps registered
-with :func:`ns_pz.agents.search._kernels.register_step` draw nothing else.
+are numpy's internals, so the state is read only where it lies within the bit generator
+object's own memory (:func:`state_address`), and :func:`inline_streams` checks once per process
+that the inline draws equal numba's draws on the Generator, and that the Generator then
+continues from the same state; where either fails, it hands the generators back unchanged (the
+kernels draw through them as before). Only ``random()`` exists on a stream: the kernels and
+the family steps registered with :func:`ns_pz.agents.search._kernels.register_step` draw
+nothing else.
 
 Imported with the kernels (it needs numba), never by ``import ns_pz``.
 """
