@@ -88,11 +88,36 @@ def test_other_generators_and_objects_pass_through_unchanged(pcg64):
 
 
 def test_a_state_found_outside_the_bit_generator_is_not_read(pcg64, monkeypatch):
-    """A pointer that does not lie within the bit generator's own memory is refused."""
+    """The pointer and the state it points to must both lie within the bit generator itself."""
     bit_generator = np.random.PCG64(1)
-    assert pcg64.state_address(bit_generator) is not None
-    monkeypatch.setattr(pcg64.sys, "getsizeof", lambda obj: 8)  # the object ends before it
-    assert pcg64.state_address(bit_generator) is None
+    start, end = pcg64._object_span(bit_generator)
+    holder = bit_generator.ctypes.state_address
+    state = pcg64.state_address(bit_generator)
+    assert state is not None and start <= holder < state < end
+    spans = {
+        "the object ends before the pointer": (start, holder),
+        "the object ends inside the state": (start, state + 16),
+        "the object starts after the pointer": (holder + 1, end),
+    }
+    for why, span in spans.items():
+        monkeypatch.setattr(pcg64, "_object_span", lambda obj, span=span: span)
+        assert pcg64.state_address(bit_generator) is None, why
+        generator = np.random.Generator(bit_generator)
+        with pytest.raises(ValueError, match="is not where PCG64's is"):
+            pcg64.PCG64Stream(generator)
+        assert pcg64.inline_streams(generator) == (generator,), why
+
+
+def test_a_stream_is_only_built_on_a_generator_on_pcg64(pcg64):
+    """Other generators are refused by name; in Python a stream draws the generator's numbers."""
+    for other in (np.random.Generator(np.random.MT19937(3)), np.random.PCG64(3), 0.5):
+        with pytest.raises(ValueError, match="is not a Generator on numpy's PCG64"):
+            pcg64.PCG64Stream(other)
+    inline, reference = _generators(9)
+    stream = pcg64.PCG64Stream(inline)
+    assert [stream.random() for _ in range(3)] == reference.random(3).tolist()
+    with pytest.raises(AttributeError):
+        stream.address = 0  # type: ignore[misc]  # read-only: compiled code writes there
 
 
 def test_a_failed_check_hands_the_generators_back(pcg64, monkeypatch):
@@ -102,8 +127,9 @@ def test_a_failed_check_hands_the_generators_back(pcg64, monkeypatch):
     assert pcg64.inline_streams(generator) == (generator,)
 
 
-def test_a_compiled_search_leaves_both_generators_as_the_python_search_does():
+def test_a_compiled_search_leaves_both_generators_as_the_python_search_does(pcg64):
     """The model's and the search's generators end in the same state on both paths."""
+    assert pcg64.inline_draws_match()  # so the compiled search draws inline
     env = ns_pz.make_gym("ns_pz/FrozenLake-v0")
     env.reset(seed=0)
     outcomes = env.planning_model().outcomes

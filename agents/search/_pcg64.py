@@ -17,7 +17,9 @@ that the inline draws equal numba's draws on the Generator, and that the Generat
 continues from the same state; where either fails, it hands the generators back unchanged (the
 kernels draw through them as before). Only ``random()`` exists on a stream: the kernels and
 the family steps registered with :func:`ns_pz.agents.search._kernels.register_step` draw
-nothing else.
+nothing else. As for a registered step, numba's cache of the kernels does not notice an edit
+here: after changing :func:`_next_double`, delete the cache folder
+(:mod:`~ns_pz.agents.search.numba_cache`).
 
 Imported with the kernels (it needs numba), never by ``import ns_pz``.
 """
@@ -26,7 +28,6 @@ from __future__ import annotations
 
 import ctypes
 import functools
-import sys
 from typing import Any
 
 import numba
@@ -58,22 +59,45 @@ _STATE_BYTES = 32
 class PCG64Stream:
     """A ``numpy.random.Generator`` on ``PCG64``, as compiled code draws from it inline.
 
-    Build it with :func:`inline_streams`, which checks that this numpy's PCG64 is the one
-    drawn inline. It keeps the generator (whose memory holds the state) alive.
+    :func:`inline_streams` builds these once it has checked that this numpy's PCG64 is the one
+    drawn inline. A stream keeps the generator (whose memory holds the state) alive; in Python
+    (numba's JIT disabled) its ``random()`` is the generator's.
 
-    Attributes:
-        generator: The Generator drawn from.
-        address: Where its bit generator keeps the 128-bit state and increment.
+    Raises:
+        ValueError: ``generator`` is not on numpy's ``PCG64``, or its state is not where
+            :func:`state_address` looks for it.
     """
 
-    __slots__ = ("address", "generator")
+    __slots__ = ("_address", "_generator")
 
-    def __init__(self, generator: np.random.Generator, address: int) -> None:
-        self.generator = generator
-        self.address = address
+    def __init__(self, generator: np.random.Generator) -> None:
+        bit_generator = getattr(generator, "bit_generator", None)
+        if not isinstance(generator, np.random.Generator) or type(bit_generator) is not (
+            np.random.PCG64
+        ):
+            raise ValueError(f"generator={generator!r} is not a Generator on numpy's PCG64")
+        address = state_address(bit_generator)
+        if address is None:
+            raise ValueError(f"the state of {bit_generator!r} is not where PCG64's is")
+        self._generator = generator
+        self._address = address
+
+    @property
+    def generator(self) -> np.random.Generator:
+        """The Generator drawn from."""
+        return self._generator
+
+    @property
+    def address(self) -> int:
+        """Where its bit generator keeps the 128-bit state and increment."""
+        return self._address
+
+    def random(self) -> float:
+        """The generator's next draw (compiled code draws inline instead)."""
+        return float(self._generator.random())
 
     def __repr__(self) -> str:
-        return f"PCG64Stream({self.generator!r})"
+        return f"PCG64Stream({self._generator!r})"
 
 
 def state_address(bit_generator: Any) -> int | None:
@@ -81,11 +105,10 @@ def state_address(bit_generator: Any) -> int | None:
 
     numpy's PCG64 holds a pointer to its state (first field of the struct at
     ``ctypes.state_address``), and the state inside the bit generator object itself. Both are
-    checked to lie within the object's own memory before anything is read from them, so another
-    layout is refused rather than read (CPython: ``id`` is the object's address).
+    checked to lie within the object's own memory (:func:`_object_span`) before anything is
+    read from them, so another layout is refused rather than read.
     """
-    start = id(bit_generator)
-    end = start + sys.getsizeof(bit_generator)
+    start, end = _object_span(bit_generator)
     holder = bit_generator.ctypes.state_address
     if not start <= holder <= end - ctypes.sizeof(ctypes.c_void_p):
         return None
@@ -93,6 +116,11 @@ def state_address(bit_generator: Any) -> int | None:
     if address is None or not start <= address <= end - _STATE_BYTES:
         return None
     return address
+
+
+def _object_span(obj: Any) -> tuple[int, int]:
+    """Where ``obj``'s own fields lie: its address (CPython's ``id``) plus its type's size."""
+    return id(obj), id(obj) + type(obj).__basicsize__
 
 
 class PCG64StreamType(types.Type):
@@ -188,14 +216,14 @@ def inline_draws_match() -> bool:
     """
     inline = np.random.default_rng(20261128)
     reference = np.random.default_rng(20261128)
-    address = state_address(inline.bit_generator)
-    if address is None:
+    try:
+        stream = PCG64Stream(inline)
+    except ValueError:
         return False
-    words = (ctypes.c_uint64 * 4).from_address(address)
+    words = (ctypes.c_uint64 * 4).from_address(stream.address)
     told = inline.bit_generator.state["state"]
     if (words[0] | words[1] << 64, words[2] | words[3] << 64) != (told["state"], told["inc"]):
         return False
-    stream = PCG64Stream(inline, address)
     same = np.array_equal(_draws(stream, 1000), _draws(reference, 1000))
     return bool(same and inline.random() == reference.random())
 
@@ -212,9 +240,7 @@ def inline_streams(*generators: Any) -> tuple[Any, ...]:
 
 
 def _stream_or_itself(generator: Any) -> Any:
-    if not isinstance(generator, np.random.Generator):
+    try:
+        return PCG64Stream(generator)
+    except ValueError:
         return generator
-    if type(generator.bit_generator) is not np.random.PCG64:
-        return generator
-    address = state_address(generator.bit_generator)
-    return generator if address is None else PCG64Stream(generator, address)
