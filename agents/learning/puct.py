@@ -305,7 +305,7 @@ def puct_tree(
         )
     if compiled is not None:
         search = (settings.iterations, depth, float(c), float(gamma), settings.normalise_q)
-        generators = (compiled.rng, rng)
+        generators = kernels().inline_streams(compiled.rng, rng)  # PCG64 drawn inline
         root_priors = np.asarray(priors, dtype=np.float64)
         if isinstance(evaluate, VectorEvaluation):
             function = evaluate.function
