@@ -63,6 +63,21 @@ def test_search_benchmark_smoke_run(tmp_path):
     assert "One AlphaZero (PUCT) decision" in out and "CartPole m=25 d=100" in out
 
 
+def test_inline_draws_benchmark_smoke_run(tmp_path):
+    """bench_inline_draws.py --smoke times a draw and decisions both ways, checked equal."""
+    pytest.importorskip("numba")
+    bench = BENCH.parent / "bench_inline_draws.py"
+    out = subprocess.run(
+        [sys.executable, str(bench), "--smoke"],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=tmp_path,
+    ).stdout
+    assert "one random() in a compiled loop: Generator" in out
+    assert "UCT FrozenLake (m=100)" in out and "PUCT CartPole (m=500)" in out
+
+
 def test_detector_benchmark_smoke_run():
     """bench_detectors.py --smoke scores every setting of the three single-change specs."""
     bench = BENCH.parent / "bench_detectors.py"
