@@ -32,7 +32,7 @@ from ns_pz.agents.search._kernels import (
 )
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _select(q, priors, n, visits, c, lo, hi, normalise, rng, scores, ties):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """As ``puct._select``: (scaled) Q plus the prior term, uniform among ties."""
     num_actions = q.shape[0]
