@@ -178,7 +178,7 @@ def puct_tabular(  # type: ignore[no-untyped-def]  # pragma: no cover
 
 
 # --- a network inside the kernel: vector states -----------------------------------------------
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _dense(weights, row, x, out, relu, acc, nonzero):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """``out = x @ W + b`` (ReLU'd if ``relu``) for the layer ``row = (W at, in, out, b at)``.
 
@@ -215,7 +215,7 @@ def _dense(weights, row, x, out, relu, acc, nonzero):  # type: ignore[no-untyped
         out[j] = value if (value > 0.0 or not relu) else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _mlp(weights, layout, first, count, x, scratch, nonzero, relu_last):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """Layers ``first .. first + count - 1`` on ``x``, ReLU between; returns the output buffer.
 
@@ -329,7 +329,7 @@ def _memo_slots(key_bits):  # type: ignore[no-untyped-def]  # pragma: no cover
     return slots
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _memo_find(slots, key_bits, bits):  # type: ignore[no-untyped-def]  # pragma: no cover
     """The row of ``key_bits`` equal to ``bits`` bit for bit, or -1."""
     mask = slots.shape[0] - 1
