@@ -23,6 +23,17 @@ def _bench_module(name: str):
     return module
 
 
+def _smoke_output(script: str, folder: Path) -> str:
+    """What ``benchmarks/<script> --smoke`` prints, run from ``folder``."""
+    return subprocess.run(
+        [sys.executable, str(BENCH.parent / script), "--smoke"],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=folder,
+    ).stdout
+
+
 def test_core_benchmark_smoke_run():
     """bench_core.py --smoke finishes and prints a ratio for every case."""
     out = subprocess.run(
@@ -44,14 +55,7 @@ def test_core_benchmark_smoke_run():
 
 def test_search_benchmark_smoke_run(tmp_path):
     """bench_search.py --smoke times a decision and a model step per setting, and AlphaZero."""
-    bench = BENCH.parent / "bench_search.py"
-    out = subprocess.run(
-        [sys.executable, str(bench), "--smoke"],
-        capture_output=True,
-        text=True,
-        check=True,
-        cwd=tmp_path,
-    ).stdout
+    out = _smoke_output("bench_search.py", tmp_path)
     assert "One MCTS decision" in out and "Model step in the rollout loop" in out
     for setting in (
         "FrozenLake m=5 d=100",
@@ -66,14 +70,7 @@ def test_search_benchmark_smoke_run(tmp_path):
 def test_inline_draws_benchmark_smoke_run(tmp_path):
     """bench_inline_draws.py --smoke times a draw and decisions both ways, checked equal."""
     pytest.importorskip("numba")
-    bench = BENCH.parent / "bench_inline_draws.py"
-    out = subprocess.run(
-        [sys.executable, str(bench), "--smoke"],
-        capture_output=True,
-        text=True,
-        check=True,
-        cwd=tmp_path,
-    ).stdout
+    out = _smoke_output("bench_inline_draws.py", tmp_path)
     assert "one random() in a compiled loop: Generator" in out
     assert "UCT FrozenLake (m=100)" in out and "PUCT CartPole (m=500)" in out
 
