@@ -217,35 +217,25 @@ class DoubleDQN(MLPLearner):
         if blas is None:
             return self.gradient_step(buffer.batch(index))
         self._checked_rows(buffer.features, 2)
-        beta1, beta2 = ADAM_BETAS
-        steps = self.steps + 1
-        squares = compiled_step().ddqn_step(
-            blas,
-            self.layout,
-            self.params,
-            self.grad,
-            self.m,
-            self.v,
-            self.target,
-            index,
-            buffer.features,
-            buffer.actions,
-            buffer.rewards,
-            buffer.next_features,
-            buffer.terminated,
-            self.args.gamma,
-            self.learning_rate,
-            self.weight_decay,
-            beta1,
-            beta2,
-            ADAM_EPS,
-            1.0 - beta1**steps,
-            math.sqrt(1.0 - beta2**steps),
-            self.args.tau,
-        )
-        self.steps = steps
+        squares = self._whole_step(blas, index, buffer)
         # np.mean's own sum and division: the loss has the NumPy path's bits
         return float(np.add.reduce(squares)) / len(squares)
+
+    def _whole_step(self, blas: np.ndarray, index: np.ndarray, buffer: ReplayBuffer) -> Any:
+        """The compiled gradient step on ``buffer``'s rows ``index``: the squared TD errors.
+
+        ``steps`` counts it only once it has run (a bad stored action raises first).
+        """
+        beta1, beta2 = ADAM_BETAS
+        steps = self.steps + 1
+        squares = compiled_step().ddqn_step(  # type: ignore[union-attr]  # products: numba is there
+            blas, self.layout, self.params, self.grad, self.m, self.v, self.target, index,
+            buffer.features, buffer.actions, buffer.rewards, buffer.next_features,
+            buffer.terminated, self.args.gamma, self.learning_rate, self.weight_decay, beta1,
+            beta2, ADAM_EPS, 1.0 - beta1**steps, math.sqrt(1.0 - beta2**steps), self.args.tau,
+        )  # fmt: skip
+        self.steps = steps
+        return squares
 
     def loss_and_gradient(self, batch: Batch) -> float:
         """The TD loss of ``batch`` (MSE to the Double-DQN target); its gradient in ``grad``."""
@@ -417,15 +407,7 @@ def _agrees_with_numpy(blas: np.ndarray, widths: tuple[int, ...], rows: int) -> 
         for _ in range(3):
             index = rng.integers(buffer.size, size=rows)
             numpy_learner.gradient_step(buffer.batch(index))
-            compiled.steps += 1
-            kernels.ddqn_step(
-                blas, layout, compiled.params, compiled.grad, compiled.m, compiled.v,
-                compiled.target, index, buffer.features, buffer.actions, buffer.rewards,
-                buffer.next_features, buffer.terminated, args.gamma, compiled.learning_rate,
-                compiled.weight_decay, *ADAM_BETAS, ADAM_EPS,
-                1.0 - ADAM_BETAS[0] ** compiled.steps,
-                math.sqrt(1.0 - ADAM_BETAS[1] ** compiled.steps), args.tau,
-            )  # fmt: skip
+            compiled._whole_step(blas, index, buffer)
     names = ("params", "grad", "m", "v", "target")
     return all(np.array_equal(getattr(numpy_learner, n), getattr(compiled, n)) for n in names)
 
