@@ -38,6 +38,8 @@ from ns_pz.agents.search import numba_cache
 from ns_pz.agents.search._pcg64 import inline_streams  # noqa: F401  # for the callers
 from ns_pz.agents.search.compiled import (
     CUMULATIVE,
+    FIELDS,
+    NEXT_OFFSET,
     NEXT_STATE,
     REWARD,
     TERMINAL,
@@ -226,7 +228,9 @@ def pack_table(probs, next_states, rewards, terminals):  # type: ignore[no-untyp
         draw from (a negative or NaN probability, or none positive); the table is then unfinished.
     """
     num_states, num_actions, num_outcomes = probs.shape
-    table = np.empty((num_states, num_actions, num_outcomes, 4))
+    table = np.empty((num_states, num_actions, num_outcomes, FIELDS))
+    offsets = table.reshape(-1).view(np.int64)
+    state_length = num_actions * num_outcomes * FIELDS
     for s in range(num_states):
         for a in range(num_actions):
             total = 0.0
@@ -242,6 +246,8 @@ def pack_table(probs, next_states, rewards, terminals):  # type: ignore[no-untyp
                 table[s, a, k, NEXT_STATE] = next_states[s, a, k]
                 table[s, a, k, REWARD] = rewards[s, a, k]
                 table[s, a, k, TERMINAL] = 1.0 if terminals[s, a, k] else 0.0
+                entry = ((s * num_actions + a) * num_outcomes + k) * FIELDS
+                offsets[entry + NEXT_OFFSET] = next_states[s, a, k] * state_length
             if last < 0:
                 return table, s, a
             for k in range(last, num_outcomes):
@@ -274,26 +280,36 @@ def tabular_rollout(data, state, num_actions, depth, gamma, model_rng, search_rn
     The outcome is the number of cumulative probabilities at or below the draw (they never
     decrease, so these come first, and the infinite one never counts): the same outcome as the
     scan's, without a branch on the draw, which the CPU would often mispredict where the
-    outcome is truly random. The table is read off ``data`` once, before the loop.
+    outcome is truly random. The walk reads the flattened table at unsigned offsets (numba adds
+    no test for negative indices) and goes from state to state through ``NEXT_OFFSET``.
+
+    The outcomes' stride is read from the table's shape, not compiled in as ``FIELDS``: with a
+    constant stride LLVM turns the count into a vector gather, whose latency lies on the chain
+    from one step to the next (11.4 against 7.7 ns a CliffWalking step).
     """
     table = data.table
-    num_outcomes = table.shape[2]
-    s = int(state[0])
+    _, _, num_outcomes, fields = table.shape
+    flat = table.reshape(-1)
+    offsets = flat.view(np.uint64)
+    stride = np.uint64(fields)
+    action_length = np.uint64(num_outcomes) * stride
+    start = np.uint64(int(state[0])) * np.uint64(num_actions) * action_length
     total = 0.0
     discount = 1.0
     steps = 0
     while steps < depth:
-        action = _uniform_index(search_rng, num_actions)
+        row = start + np.uint64(_uniform_index(search_rng, num_actions)) * action_length
         u = model_rng.random()
-        pick = 0
+        pick = np.uint64(0)
         for k in range(num_outcomes):
-            pick += table[s, action, k, CUMULATIVE] <= u
-        total += discount * table[s, action, pick, REWARD]
+            pick += np.uint64(flat[row + np.uint64(k) * stride + np.uint64(CUMULATIVE)] <= u)
+        entry = row + pick * stride
+        total += discount * flat[entry + np.uint64(REWARD)]
         discount *= gamma
         steps += 1
-        if table[s, action, pick, TERMINAL] != 0.0:
+        if flat[entry + np.uint64(TERMINAL)] != 0.0:
             break
-        s = int(table[s, action, pick, NEXT_STATE])
+        start = offsets[entry + np.uint64(NEXT_OFFSET)]
     return total, steps
 
 

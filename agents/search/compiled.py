@@ -46,8 +46,9 @@ COMPILED_STEP_MODULES: list[str] = ["ns_pz.agents.search._kernels"]
 BACKENDS = ("auto", "compiled", "python")
 
 
-CUMULATIVE, NEXT_STATE, REWARD, TERMINAL = 0, 1, 2, 3
-"""What :attr:`TabularData.table` holds for each outcome, by index along its last axis.
+CUMULATIVE, NEXT_STATE, REWARD, TERMINAL, NEXT_OFFSET, FIELDS = 0, 1, 2, 3, 4, 5
+"""What :attr:`TabularData.table` holds for each outcome, by index along its last axis (of
+length ``FIELDS``).
 
 The kernels compile these numbers in, and numba's on-disk cache of ``_kernels.py`` does not
 notice a change here: after changing them, delete that cache folder
@@ -71,10 +72,18 @@ class TabularData(NamedTuple):
     30 % faster). A rollout reads every outcome of a row at each step (it counts rather than
     stops), which suits the few outcomes of the built-in grids.
 
+    A rollout walks from outcome to outcome through ``NEXT_OFFSET``: where the next state's
+    first entry lies in the table flattened, an ``int64`` held in the float's bits (read
+    through an integer view of the array). It saves the conversion of ``NEXT_STATE`` to an
+    integer and the multiplication by a state's length at every step, which lie on the chain
+    of dependent instructions from one step to the next (a CliffWalking rollout step took
+    7.3 ns against 12.3 ns).
+
     Attributes:
-        table: ``[num_states, num_actions, num_outcomes, 4]`` float64: each outcome's
-            cumulative probability, next state, reward and terminal flag (1.0 or 0.0), at the
-            indices ``CUMULATIVE``, ``NEXT_STATE``, ``REWARD`` and ``TERMINAL``.
+        table: ``[num_states, num_actions, num_outcomes, FIELDS]`` float64: each outcome's
+            cumulative probability, next state, reward, terminal flag (1.0 or 0.0) and the next
+            state's offset, at the indices ``CUMULATIVE``, ``NEXT_STATE``, ``REWARD``,
+            ``TERMINAL`` and ``NEXT_OFFSET``.
     """
 
     table: np.ndarray
