@@ -500,16 +500,19 @@ def test_the_compiled_forward_pass_is_numpys(trunk, policy, value):
         np.testing.assert_allclose(v, expected_v, rtol=1e-12, atol=1e-14)
 
 
-def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit():
+@pytest.mark.parametrize("trunk", [(128, 128), (40, 70)])
+def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit(trunk):
     """Each dense output is ``((0 + x_0 w_0) + x_1 w_1) + ...`` then the bias, exactly.
 
-    So skipping zero inputs (ReLU'd units, a state component of exactly 0) changes no bit: the
-    value head's output equals this order-exact numpy reference, with and without zeros.
+    So skipping zero inputs (ReLU'd units, a state component of exactly 0) changes no bit, nor
+    does summing the outputs 32 at a time in vector registers with the rest one by one (40 and
+    70 outputs: one and two blocks and a rest; the value head's 7: a rest only): the value
+    head's output equals this order-exact numpy reference, with and without zeros.
     """
     pytest.importorskip("numba")
     from ns_pz.agents.learning._puct_kernels import network
 
-    function = _random_cartpole_function(5, (128, 128), (), (7,))
+    function = _random_cartpole_function(5, trunk, (), (7,))
     weights, layout, parts = function.packed()
 
     def dense(x, row, relu):
@@ -531,7 +534,31 @@ def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit()
         expected = dense(dense(h, layout[3], True), layout[4], False)[0]
         _, value = network(weights, layout, parts, x)
         assert value == expected
-    assert zeros > 30 * 20  # many switched-off units were skipped
+    assert zeros > 30 * 10  # many switched-off units were skipped
+
+
+def test_packed_weights_start_on_a_cache_line_and_each_matrix_on_eight_floats():
+    """Where the compiled forward pass's vector loads need them; a copy that lost it re-packs."""
+    import pickle
+
+    function = _random_cartpole_function(2, (40, 70), (5,), ())
+    weights, layout, _ = function.packed()
+    assert weights.ctypes.data % 64 == 0
+    assert all(start % 8 == 0 for start in layout[:, 0])
+    for (w, b), (start, inputs, outputs, bias) in zip(
+        [layer for mlp in (function.trunk, function.policy, function.value) for layer in mlp.layers],
+        layout,
+        strict=True,
+    ):
+        assert (inputs, outputs) == w.shape and bias == start + w.size
+        np.testing.assert_array_equal(weights[start:bias], w.ravel())
+        np.testing.assert_array_equal(weights[bias : bias + outputs], b)
+    assert function.packed()[0] is weights  # built once
+    copy = pickle.loads(pickle.dumps(function))
+    again, layout_again, _ = copy.packed()
+    assert again.ctypes.data % 64 == 0
+    np.testing.assert_array_equal(again, weights)
+    np.testing.assert_array_equal(layout_again, layout)
 
 
 def test_compiled_puct_refuses_what_it_cannot_run():

@@ -23,6 +23,7 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
 from ns_pz.agents.search._kernels import (
     _find_child,
     _uniform_index,
@@ -30,6 +31,9 @@ from ns_pz.agents.search._kernels import (
     family_step,
     tabular_step,
 )
+from numba.core import cgutils, types
+from numba.core.errors import TypingError
+from numba.extending import intrinsic
 
 
 @numba.njit(cache=True, inline="always")
@@ -178,17 +182,83 @@ def puct_tabular(  # type: ignore[no-untyped-def]  # pragma: no cover
 
 
 # --- a network inside the kernel: vector states -----------------------------------------------
+_LANES = 8
+"""Doubles in one vector register of :func:`_block_sums` (AVX-512's; two AVX2 registers)."""
+_VECTORS = 4
+"""Vectors of accumulators :func:`_block_sums` keeps in registers at once."""
+BLOCK = _LANES * _VECTORS
+"""Outputs of a layer that :func:`_block_sums` sums at once."""
+
+
+@intrinsic
+def _block_sums(typingctx, weights, start, stride, x, nonzero, count, acc, first):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
+    """``acc[first + j] = Σ_k x[i_k] · weights[start + i_k · stride + j]`` for ``j < BLOCK``.
+
+    ``i_k = nonzero[k]`` for ``k < count``; each of the ``BLOCK`` sums starts at +0.0 and adds
+    its products one by one in ``k``'s order, a multiplication and then an addition (not fused),
+    as :func:`_dense`'s loop does: the same bits. Written in LLVM's vector types because numba's
+    loop keeps the sums in memory (a load and a store of each per input), and LLVM promotes the
+    accumulators here to registers: the trunk's 128 x 128 layer took 0.52 against 0.95 µs on
+    the development machine.
+
+    All four arrays must be C-contiguous (``weights``, ``x`` and ``acc`` float64, ``nonzero``
+    int64), which the compiler checks.
+    """
+    for name, array, dtype in (
+        ("weights", weights, types.float64),
+        ("x", x, types.float64),
+        ("nonzero", nonzero, types.int64),
+        ("acc", acc, types.float64),
+    ):
+        if not (isinstance(array, types.Array) and array.layout == "C" and array.dtype == dtype):
+            raise TypingError(f"{name} must be a C-contiguous {dtype} array, not {array}")
+    integer = types.int64
+    signature = types.void(weights, integer, integer, x, nonzero, integer, acc, integer)
+
+    def codegen(context, builder, sig, args):  # type: ignore[no-untyped-def]
+        def data(k: int) -> ir.Value:
+            return context.make_array(sig.args[k])(context, builder, args[k]).data
+
+        weights_at, x_at, nonzero_at, acc_at = data(0), data(3), data(4), data(6)
+        start, stride, count, first = args[1], args[2], args[5], args[7]
+        i32, i64 = ir.IntType(32), ir.IntType(64)
+        vector = ir.VectorType(ir.DoubleType(), _LANES)
+        sums = [
+            cgutils.alloca_once_value(builder, ir.Constant(vector, [0.0] * _LANES))
+            for _ in range(_VECTORS)
+        ]
+        with cgutils.for_range(builder, count) as loop:
+            i = builder.load(builder.gep(nonzero_at, [loop.index]))
+            xi = builder.load(builder.gep(x_at, [i]))
+            spread = builder.insert_element(ir.Constant(vector, None), xi, ir.Constant(i32, 0))
+            lane_zero = ir.Constant(ir.VectorType(i32, _LANES), [0] * _LANES)
+            spread = builder.shuffle_vector(spread, ir.Constant(vector, None), lane_zero)
+            row = builder.add(start, builder.mul(i, stride))
+            for v, total in enumerate(sums):
+                at = builder.gep(weights_at, [builder.add(row, ir.Constant(i64, v * _LANES))])
+                w = builder.load(builder.bitcast(at, vector.as_pointer()), align=8)
+                builder.store(builder.fadd(builder.load(total), builder.fmul(spread, w)), total)
+        for v, total in enumerate(sums):
+            at = builder.gep(acc_at, [builder.add(first, ir.Constant(i64, v * _LANES))])
+            builder.store(builder.load(total), builder.bitcast(at, vector.as_pointer()), align=8)
+        return context.get_dummy_value()
+
+    return signature, codegen
+
+
 @numba.njit(cache=True, inline="always")
 def _dense(weights, row, x, out, relu, acc, nonzero):  # type: ignore[no-untyped-def]  # noqa: E501  # pragma: no cover
     """``out = x @ W + b`` (ReLU'd if ``relu``) for the layer ``row = (W at, in, out, b at)``.
 
-    ``W`` is stored ``[in, out]`` row-major, so the inner loop runs over the outputs: each output
-    sums its products in input order, one accumulator each (no reassociation, so the result is
-    the same however the compiler vectorises the loop). An input of 0 (a unit the ReLU switched
-    off: about half of a trunk's) is left out: its products are ±0 for finite weights, and
-    adding ±0 to an accumulator that starts at +0 never changes it, so every sum is the full
-    loop's, bit for bit. The inputs that are not 0 are listed first, without a branch
-    (``nonzero``), since a branch on each input mispredicts often.
+    ``W`` is stored ``[in, out]`` row-major. Each output sums its products in input order from
+    +0.0, one accumulator each (no reassociation, so the result is the same however the outputs
+    are grouped or vectorised). An input of 0 (a unit the ReLU switched off: about half of a
+    trunk's) is left out: its products are ±0 for finite weights, and adding ±0 to an
+    accumulator that starts at +0 never changes it, so every sum is the full loop's, bit for
+    bit. The inputs that are not 0 are listed first, without a branch (``nonzero``), since a
+    branch on each input mispredicts often. The outputs go ``BLOCK`` at a time through
+    :func:`_block_sums`; the rest (a head's one or two) one at a time, each sum in a register
+    (the policy head took 0.16 against 0.19 µs, the value head 0.11 against 0.18).
 
     ``acc`` (the accumulators) and ``nonzero`` are scratch at least as long as the layer's
     outputs and inputs, not fresh arrays (an allocation per layer cost about a tenth of a
@@ -203,14 +273,15 @@ def _dense(weights, row, x, out, relu, acc, nonzero):  # type: ignore[no-untyped
     for i in range(inputs):
         nonzero[count] = i
         count += x[i] != 0.0
-    for j in range(outputs):
-        acc[j] = 0.0
-    for k in range(count):
-        i = nonzero[k]
-        xi = x[i]
-        matrix_row = weights[at + i * outputs : at + (i + 1) * outputs]
-        for j in range(outputs):
-            acc[j] += xi * matrix_row[j]
+    blocked = outputs - outputs % BLOCK
+    for first in range(0, blocked, BLOCK):
+        _block_sums(weights, at + first, outputs, x, nonzero, count, acc, first)
+    for j in range(blocked, outputs):
+        total = 0.0
+        for k in range(count):
+            i = nonzero[k]
+            total += x[i] * weights[at + i * outputs + j]
+        acc[j] = total
     for j in range(outputs):
         value = acc[j] + weights[bias + j]
         out[j] = value if (value > 0.0 or not relu) else 0.0

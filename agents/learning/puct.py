@@ -103,20 +103,41 @@ class PolicyValueFunction:
         ``layout`` ``[num_layers, 4]`` (int64) is per layer ``(matrix offset, in, out, bias
         offset)``, the trunk's layers first, then the policy head's, then the value head's;
         ``parts`` ``[3]`` (int64) counts the layers of each. Built once, then shared.
+
+        ``weights`` starts on a 64-byte boundary and each matrix on a multiple of 8 floats
+        (zeros fill the gaps), so the compiled forward pass's vector loads of a row never
+        straddle two cache lines where a layer's width is a multiple of 8 (such loads made the
+        trunk's 128 x 128 layer 0.95 against 0.49 µs). Re-packed if a copy (unpickled, say)
+        lost the alignment.
         """
-        if self._packed is None:
-            chunks: list[np.ndarray] = []
+        if self._packed is None or self._packed[0].ctypes.data % _ALIGNMENT:
             rows: list[tuple[int, int, int, int]] = []
             at = 0
             mlps = (self.trunk, self.policy, self.value)
-            for w, b in (layer for mlp in mlps for layer in mlp.layers):
+            layers = [layer for mlp in mlps for layer in mlp.layers]
+            for w, b in layers:
+                at = -(-at // _FLOATS_PER_LINE) * _FLOATS_PER_LINE
                 rows.append((at, w.shape[0], w.shape[1], at + w.size))
-                chunks += [w.ravel(), b]
                 at += w.size + b.size
+            weights = _aligned_zeros(at)
+            for (w, b), (start, _, _, bias) in zip(layers, rows, strict=True):
+                weights[start:bias] = w.ravel()
+                weights[bias : bias + b.size] = b
             parts = np.array([len(mlp.layers) for mlp in mlps], dtype=np.int64)
-            layout = np.array(rows, dtype=np.int64)
-            self._packed = (np.concatenate(chunks).astype(np.float64), layout, parts)
+            self._packed = (weights, np.array(rows, dtype=np.int64), parts)
         return self._packed
+
+
+_ALIGNMENT = 64
+"""Bytes of a cache line: where :meth:`PolicyValueFunction.packed` starts its weights."""
+_FLOATS_PER_LINE = _ALIGNMENT // 8
+
+
+def _aligned_zeros(size: int) -> np.ndarray:
+    """``size`` float64 zeros whose first lies on a ``_ALIGNMENT``-byte boundary."""
+    buffer = np.zeros(size + _FLOATS_PER_LINE)
+    skip = (-buffer.ctypes.data % _ALIGNMENT) // 8
+    return buffer[skip : skip + size]
 
 
 class VectorEvaluation:
