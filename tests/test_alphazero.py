@@ -500,19 +500,22 @@ def test_the_compiled_forward_pass_is_numpys(trunk, policy, value):
         np.testing.assert_allclose(v, expected_v, rtol=1e-12, atol=1e-14)
 
 
-@pytest.mark.parametrize("trunk", [(128, 128), (40, 70)])
-def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit(trunk):
+@pytest.mark.parametrize(
+    ("trunk", "value_head"), [((128, 128), (7,)), ((40, 70), ()), ((128, 128), ())]
+)
+def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit(trunk, value_head):
     """Each dense output is ``((0 + x_0 w_0) + x_1 w_1) + ...`` then the bias, exactly.
 
     So skipping zero inputs (ReLU'd units, a state component of exactly 0) changes no bit, nor
-    does summing the outputs 32 at a time in vector registers with the rest one by one (40 and
-    70 outputs: one and two blocks and a rest; the value head's 7: a rest only): the value
-    head's output equals this order-exact numpy reference, with and without zeros.
+    does summing the outputs 32 at a time in vector registers and the rest four at a time (40
+    and 70 outputs: one and two blocks and a rest; a head's 7, 2 and 1: a rest only), nor
+    computing both one-layer heads in one pass: the priors and the value equal this order-exact
+    numpy reference's, with and without zeros.
     """
     pytest.importorskip("numba")
-    from ns_pz.agents.learning._puct_kernels import network
+    from ns_pz.agents.learning._puct_kernels import _softmax_into, network
 
-    function = _random_cartpole_function(5, trunk, (), (7,))
+    function = _random_cartpole_function(5, trunk, (), value_head)
     weights, layout, parts = function.packed()
 
     def dense(x, row, relu):
@@ -524,16 +527,24 @@ def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit(t
         out = acc + weights[bias : bias + outputs]
         return np.where(out > 0.0, out, 0.0) if relu else out
 
+    def layers(x, rows, relu_last=False):
+        for k, row in enumerate(rows):
+            x = dense(x, row, relu_last or k < len(rows) - 1)
+        return x
+
     rng = np.random.default_rng(1)
     states = rng.normal(size=(30, 4)) * rng.choice([0.0, 1.0], size=(30, 4))
     zeros = 0
     for state in states:
         x = np.float64(np.float32(state))
-        h = dense(dense(x, layout[0], True), layout[1], True)
+        h = layers(x, layout[: parts[0]], relu_last=True)
         zeros += int(np.sum(h == 0.0))
-        expected = dense(dense(h, layout[3], True), layout[4], False)[0]
-        _, value = network(weights, layout, parts, x)
-        assert value == expected
+        expected_priors = np.empty(2)
+        _softmax_into(layers(h, layout[parts[0] : parts[0] + 1]), expected_priors)
+        expected_value = layers(h, layout[parts[0] + 1 :])[0]
+        priors, value = network(weights, layout, parts, x)
+        assert value == expected_value
+        np.testing.assert_array_equal(priors, expected_priors)
     assert zeros > 30 * 10  # many switched-off units were skipped
 
 
@@ -545,11 +556,9 @@ def test_packed_weights_start_on_a_cache_line_and_each_matrix_on_eight_floats():
     weights, layout, _ = function.packed()
     assert weights.ctypes.data % 64 == 0
     assert all(start % 8 == 0 for start in layout[:, 0])
-    for (w, b), (start, inputs, outputs, bias) in zip(
-        [layer for mlp in (function.trunk, function.policy, function.value) for layer in mlp.layers],
-        layout,
-        strict=True,
-    ):
+    mlps = (function.trunk, function.policy, function.value)
+    layers = [layer for mlp in mlps for layer in mlp.layers]
+    for (w, b), (start, inputs, outputs, bias) in zip(layers, layout, strict=True):
         assert (inputs, outputs) == w.shape and bias == start + w.size
         np.testing.assert_array_equal(weights[start:bias], w.ravel())
         np.testing.assert_array_equal(weights[bias : bias + outputs], b)
