@@ -230,19 +230,23 @@ class FineTunedDDQNAgent(Agent):
         }
 
     def _transitions(self, model: Any, start: Any) -> Iterator[tuple[Any, ...]]:
-        """ε-greedy transitions from ``start``, back to ``start`` after a terminal one."""
+        """ε-greedy transitions from ``start``, back to ``start`` after a terminal one.
+
+        A state's features are computed once: the next state's are the next transition's own.
+        """
         observe = model.family.observe
         num_actions = int(model.action_space.n)
-        state = start
+        start_x = features(self.space, observe(start))
+        state, x = start, start_x
         while True:
-            x = features(self.space, observe(state))
             if self.rng.random() < self.epsilon:
                 action = int(self.rng.integers(num_actions))
             else:
                 action = self.learner.greedy(x)
             next_state, reward, terminal = model.transition(state, action)
-            yield x, action, float(reward), features(self.space, observe(next_state)), terminal
-            state = start if terminal else next_state
+            next_x = features(self.space, observe(next_state))
+            yield x, action, float(reward), next_x, terminal
+            state, x = (start, start_x) if terminal else (next_state, next_x)
 
     def _update(self) -> int:
         """One Double-DQN step on a sampled batch (none while the buffer is empty)."""
