@@ -311,7 +311,7 @@ def test_compiled_puct_builds_the_python_tree(env_id, slip, noise, normalise_q):
             env.reset(seed=seed)
 
 
-def _random_cartpole_function(seed=0, trunk=(8,), policy=(), value=()):
+def _random_cartpole_function(seed=0, trunk=(8,), policy=(), value=(), actions=2):
     """A random policy/value network over CartPole's 4 floats (hidden head layers optional)."""
     from ns_pz.agents.learning.puct import PolicyValueFunction
 
@@ -319,7 +319,7 @@ def _random_cartpole_function(seed=0, trunk=(8,), policy=(), value=()):
     weights = {}
     for prefix, sizes in (
         ("trunk", (4, *trunk)),
-        ("policy", (trunk[-1], *policy, 2)),
+        ("policy", (trunk[-1], *policy, actions)),
         ("value", (trunk[-1], *value, 1)),
     ):
         for i in range(len(sizes) - 1):
@@ -501,22 +501,34 @@ def test_the_compiled_forward_pass_is_numpys(trunk, policy, value):
 
 
 @pytest.mark.parametrize(
-    ("trunk", "value_head"), [((128, 128), (7,)), ((40, 70), ()), ((128, 128), ())]
+    ("trunk", "policy_head", "value_head", "actions"),
+    [
+        ((128, 128), (), (7,), 2),  # the heads apart: the value head has two layers
+        ((40, 70), (), (), 2),  # both heads in one pass, from here to 3 actions
+        ((128, 128), (), (), 2),
+        ((32,), (), (), 1),
+        ((33,), (), (), 3),
+        ((33,), (), (), 4),  # apart again: four actions
+        ((16,), (5,), (), 3),  # apart: the policy head has two layers
+    ],
 )
-def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit(trunk, value_head):
+def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit(
+    trunk, policy_head, value_head, actions
+):
     """Each dense output is ``((0 + x_0 w_0) + x_1 w_1) + ...`` then the bias, exactly.
 
     So skipping zero inputs (ReLU'd units, a state component of exactly 0) changes no bit, nor
     does summing the outputs 32 at a time in vector registers and the rest four at a time (40
     and 70 outputs: one and two blocks and a rest; a head's 7, 2 and 1: a rest only), nor
-    computing both one-layer heads in one pass: the priors and the value equal this order-exact
-    numpy reference's, with and without zeros.
+    computing both one-layer heads in one pass: the logits and the value equal this order-exact
+    numpy reference's, with and without zeros (the priors are the kernel's softmax of them).
     """
     pytest.importorskip("numba")
     from ns_pz.agents.learning._puct_kernels import _softmax_into, network
 
-    function = _random_cartpole_function(5, trunk, (), value_head)
+    function = _random_cartpole_function(5, trunk, policy_head, value_head, actions)
     weights, layout, parts = function.packed()
+    heads = parts[0] + parts[1]
 
     def dense(x, row, relu):
         at, inputs, outputs, bias = row
@@ -539,17 +551,17 @@ def test_the_compiled_forward_pass_sums_each_output_in_input_order_bit_for_bit(t
         x = np.float64(np.float32(state))
         h = layers(x, layout[: parts[0]], relu_last=True)
         zeros += int(np.sum(h == 0.0))
-        expected_priors = np.empty(2)
-        _softmax_into(layers(h, layout[parts[0] : parts[0] + 1]), expected_priors)
-        expected_value = layers(h, layout[parts[0] + 1 :])[0]
+        expected_priors = np.empty(actions)
+        _softmax_into(layers(h, layout[parts[0] : heads]), expected_priors)
+        expected_value = layers(h, layout[heads:])[0]
         priors, value = network(weights, layout, parts, x)
         assert value == expected_value
         np.testing.assert_array_equal(priors, expected_priors)
-    assert zeros > 30 * 10  # many switched-off units were skipped
+    assert zeros > 30 * min(trunk) / 4  # many switched-off units were skipped
 
 
 def test_packed_weights_start_on_a_cache_line_and_each_matrix_on_eight_floats():
-    """Where the compiled forward pass's vector loads need them; a copy that lost it re-packs."""
+    """Where the compiled forward pass's vector loads are fastest; a pickled copy packs again."""
     import pickle
 
     function = _random_cartpole_function(2, (40, 70), (5,), ())

@@ -579,12 +579,12 @@ def test_the_kernels_walk_known_edges_only_for_a_step_registered_deterministic()
     """CartPole's compiled step is registered deterministic, as its family says; tables draw."""
     import numba
     from ns_pz.agents.search._kernels import family_is_deterministic
-    from ns_pz.agents.search.compiled import CartPoleData, TabularData
+    from ns_pz.agents.search.compiled import FIELDS, CartPoleData, TabularData
     from ns_pz.envs.cartpole import CartPoleFamily
 
     ask = numba.njit(lambda data: family_is_deterministic(data))
     cartpole = CartPoleData(9.8, 1.0, 0.1, 0.5, 10.0, 0.02, True, 2.4, 0.2)
-    table = TabularData(np.zeros((1, 1, 1, 4)))
+    table = TabularData(np.zeros((1, 1, 1, FIELDS)))
     assert ask(cartpole) is True and CartPoleFamily.deterministic_step
     assert ask(table) is False
 

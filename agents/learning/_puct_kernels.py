@@ -111,13 +111,13 @@ def puct_tabular(  # type: ignore[no-untyped-def]  # pragma: no cover
         level = 0
         leaf = 0.0
         while True:
-            root = math.sqrt(1 + n[node])  # puct._select, written out (module docstring)
+            sqrt_n = math.sqrt(1 + n[node])  # puct._select, written out (module docstring)
             best = -np.inf
             for a in range(num_actions):
                 scaled = q[node, a]
                 if normalise and hi > lo:
                     scaled = (scaled - lo) / (hi - lo)
-                scores[a] = scaled + c * priors[node, a] * root / (1 + visits[node, a])
+                scores[a] = scaled + c * priors[node, a] * sqrt_n / (1 + visits[node, a])
                 if scores[a] > best:
                     best = scores[a]
             count = 0
@@ -187,7 +187,11 @@ def _block_sums(typingctx, weights, start, stride, x, nonzero, count, acc, first
     the development machine.
 
     All four arrays must be C-contiguous (``weights``, ``x`` and ``acc`` float64, ``nonzero``
-    int64), which the compiler checks.
+    int64), which the compiler checks. Nothing checks the bounds (numba's bounds checking does
+    not reach into this code): the caller guarantees ``weights`` holds ``BLOCK`` floats from
+    ``start + i * stride`` for every listed ``i``, and ``acc`` ``BLOCK`` from ``first``, as
+    :func:`_dense` does for each full block of a layer's outputs. The loads need no alignment
+    (only speed does).
     """
     for name, array, dtype in (
         ("weights", weights, types.float64),
@@ -275,8 +279,9 @@ def _dense(weights, row, x, out, relu, acc, nonzero):  # type: ignore[no-untyped
     bit. The inputs that are not 0 are listed first, without a branch (``nonzero``), since a
     branch on each input mispredicts often. The outputs go ``BLOCK`` at a time through
     :func:`_block_sums`, the rest (a head's one or two) four at a time through
-    :func:`_four_columns`, each sum in a register (a loop over outputs summing into ``acc``
-    made the policy head 0.19 µs where one output at a time in a register made it 0.16).
+    :func:`_four_columns`, each sum in a register (the policy head took 0.19 µs summing into
+    ``acc`` in a loop over its outputs, 0.16 one output at a time in a register; four at a time
+    and both heads in one pass, see :func:`network_into`, less again).
 
     ``acc`` (the accumulators) and ``nonzero`` are scratch at least as long as the layer's
     outputs and inputs, not fresh arrays (an allocation per layer cost about a tenth of a
@@ -388,22 +393,22 @@ def network_into(weights, layout, parts, x, priors, scratch, nonzero):  # type: 
     """
     trunk = parts[0]
     policy = parts[1]
-    num_actions = priors.shape[0]
     h = _mlp(weights, layout, 0, trunk, x, scratch, nonzero, True)
-    if policy == 1 and parts[2] == 1 and num_actions < 4:
+    outputs = layout[trunk, 2]  # the policy's, which priors has as many of
+    if policy == 1 and parts[2] == 1 and outputs < 4:
         policy_at = layout[trunk, 0]
         value_at = layout[trunk + 1, 0]
         count = _list_nonzero(h, layout[trunk, 1], nonzero)
-        b0, s0 = _head_column(0, policy_at, num_actions, value_at)
-        b1, s1 = _head_column(1, policy_at, num_actions, value_at)
-        b2, s2 = _head_column(2, policy_at, num_actions, value_at)
-        b3, s3 = _head_column(3, policy_at, num_actions, value_at)
+        b0, s0 = _head_column(0, policy_at, outputs, value_at)
+        b1, s1 = _head_column(1, policy_at, outputs, value_at)
+        b2, s2 = _head_column(2, policy_at, outputs, value_at)
+        b3, s3 = _head_column(3, policy_at, outputs, value_at)
         sums = _four_columns(weights, h, nonzero, count, b0, s0, b1, s1, b2, s2, b3, s3)
         logits = scratch[0]  # h is scratch[1] or [2]
-        for a in range(num_actions):
+        for a in range(outputs):
             logits[a] = sums[a] + weights[layout[trunk, 3] + a]
         _softmax_into(logits, priors)
-        return sums[num_actions] + weights[layout[trunk + 1, 3]]
+        return sums[outputs] + weights[layout[trunk + 1, 3]]
     kept = scratch[0]  # the heads' layers write to scratch[1] and [2]
     for j in range(layout[trunk - 1, 2]):
         kept[j] = h[j]
@@ -416,6 +421,7 @@ def network(weights, layout, parts, x):  # type: ignore[no-untyped-def]  # pragm
     """``(priors, value)`` of features ``x`` (float64): :func:`network_into` with fresh buffers."""
     priors = np.empty(layout[parts[0] + parts[1] - 1, 2])
     scratch, nonzero = network_scratch(layout, x.shape[0])
+    x = np.ascontiguousarray(x)  # the dense layers' vector code reads it as C-contiguous
     value = network_into(weights, layout, parts, x, priors, scratch, nonzero)
     return priors, value
 
@@ -559,13 +565,13 @@ def puct_vector(  # type: ignore[no-untyped-def]  # pragma: no cover
         level = 0
         leaf = 0.0
         while True:
-            root = math.sqrt(1 + n[node])  # puct._select, written out (module docstring)
+            sqrt_n = math.sqrt(1 + n[node])  # puct._select, written out (module docstring)
             best = -np.inf
             for a in range(num_actions):
                 scaled = q[node, a]
                 if normalise and hi > lo:
                     scaled = (scaled - lo) / (hi - lo)
-                scores[a] = scaled + c * priors[node, a] * root / (1 + visits[node, a])
+                scores[a] = scaled + c * priors[node, a] * sqrt_n / (1 + visits[node, a])
                 if scores[a] > best:
                     best = scores[a]
             count = 0

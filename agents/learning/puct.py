@@ -96,6 +96,10 @@ class PolicyValueFunction:
         priors = np.exp(logits - logits.max(axis=1, keepdims=True))
         return priors / priors.sum(axis=1, keepdims=True), self.value(h)[:, 0]
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The state to pickle, without the packed weights (see :meth:`packed`)."""
+        return {**self.__dict__, "_packed": None}
+
     def packed(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The layers as flat arrays for compiled code: ``(weights, layout, parts)``.
 
@@ -107,10 +111,10 @@ class PolicyValueFunction:
         ``weights`` starts on a 64-byte boundary and each matrix on a multiple of 8 floats
         (zeros fill the gaps), so the compiled forward pass's vector loads of a row never
         straddle two cache lines where a layer's width is a multiple of 8 (such loads made the
-        trunk's 128 x 128 layer 0.95 against 0.49 µs). Re-packed if a copy (unpickled, say)
-        lost the alignment.
+        trunk's 128 x 128 layer 0.95 against 0.49 µs). A pickled copy leaves them out (an
+        unpickled array lies where it lies) and packs again when asked.
         """
-        if self._packed is None or self._packed[0].ctypes.data % _ALIGNMENT:
+        if self._packed is None:
             rows: list[tuple[int, int, int, int]] = []
             at = 0
             mlps = (self.trunk, self.policy, self.value)

@@ -281,19 +281,21 @@ def tabular_rollout(data, state, num_actions, depth, gamma, model_rng, search_rn
     decrease, so these come first, and the infinite one never counts): the same outcome as the
     scan's, without a branch on the draw, which the CPU would often mispredict where the
     outcome is truly random. The walk reads the flattened table at unsigned offsets (numba adds
-    no test for negative indices) and goes from state to state through ``NEXT_OFFSET``.
+    no test for negative indices) and goes from state to state through ``NEXT_OFFSET``, so the
+    table must be :func:`pack_table`'s (``FIELDS`` wide, its offsets computed from its own
+    shape); the first state's offset is computed from that shape too.
 
-    The outcomes' stride is read from the table's shape, not compiled in as ``FIELDS``: with a
-    constant stride LLVM turns the count into a vector gather, whose latency lies on the chain
-    from one step to the next (11.4 against 7.7 ns a CliffWalking step).
+    The outcomes' stride is read from the table's shape all the same, not compiled in as
+    ``FIELDS``: with a constant stride LLVM turns the count into a vector gather, whose latency
+    lies on the chain from one step to the next (11.4 against 7.7 ns a CliffWalking step).
     """
     table = data.table
-    _, _, num_outcomes, fields = table.shape
+    _, table_actions, num_outcomes, fields = table.shape
     flat = table.reshape(-1)
     offsets = flat.view(np.uint64)
     stride = np.uint64(fields)
     action_length = np.uint64(num_outcomes) * stride
-    start = np.uint64(int(state[0])) * np.uint64(num_actions) * action_length
+    start = np.uint64(int(state[0])) * np.uint64(table_actions) * action_length
     total = 0.0
     discount = 1.0
     steps = 0
