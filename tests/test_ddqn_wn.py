@@ -187,7 +187,7 @@ def test_the_fine_tuning_step_uses_the_double_dqn_target():
     grad_output = agent.learner.grad_layers[1][0]
     assert grad_output[0, 2] == pytest.approx(3.0) and grad_output[0, 1] == 0.0
     old_target = agent.learner.target.copy()
-    assert agent._update() == 1
+    assert agent.learner.replay_steps(agent.buffer, agent.rng, 1) == 1
     # the Polyak update moved the target a quarter of the way to the online net after its step
     np.testing.assert_allclose(
         agent.learner.target, 0.75 * old_target + 0.25 * agent.learner.params, rtol=1e-12
@@ -427,3 +427,73 @@ def test_compiled_scoring_sees_the_observation_rounded_to_float32(monkeypatch):
         python = agent._greedy_returns(model, start, seed=0)
     np.testing.assert_array_equal(compiled[0], python[0])
     assert compiled[1] == python[1]
+
+
+@pytest.mark.parametrize(
+    "epsilon, capacity, validate", [(0.3, 20_000, True), (1.0, 20_000, False), (0.1, 37, False)]
+)
+def test_on_cartpole_a_compiled_fine_tuning_is_the_python_one(
+    epsilon, capacity, validate, monkeypatch
+):
+    """Transitions collected and gradient steps made in compiled code leave what Python does.
+
+    Two agents alike, one with every product refused to compiled code (so its transitions,
+    greedy actions, gradient steps and scoring run in Python), fine-tune twice from two states
+    under a heavier pole: the same networks (online, target, Adam's moments), the same buffer
+    rows (wrapped round a small buffer too), the same generators afterwards. Episodes end
+    within the budget (the pole falls), so the restarts at the current state are met. Without
+    validation the last candidate is kept, so the online networks compared are trained ones.
+    """
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.ddqn_wn import FineTunedDDQNAgent
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0", params={"masspole": 1.5})
+    env.reset(seed=0)
+    model = env.planning_model()
+    rng = np.random.default_rng(7)
+    weights = {
+        "q.0.weight": rng.normal(size=(24, 4)),
+        "q.0.bias": rng.normal(size=24) * 0.1,
+        "q.1.weight": rng.normal(size=(2, 24)) * 0.3,
+        "q.1.bias": rng.normal(size=2) * 0.1,
+    }
+    args = DDQNArgs(hidden=(24,), batch_size=16, max_episode_steps=50)
+    agents = []
+    for _ in range(2):
+        agent = FineTunedDDQNAgent(
+            weights,
+            env.family.observation_space,
+            args,
+            model_steps=150,
+            gradient_steps=40,
+            epsilon=epsilon,
+            checks=3,
+            evaluation_episodes=2,
+            validate=validate,
+        )
+        agent.reset(np.random.default_rng(11))
+        agent.buffer = type(agent.buffer)(capacity, 4)
+        agents.append(agent)
+    compiled, python = agents
+    if compiled.learner.products(1) is None or compiled.learner.products(16) is None:
+        pytest.skip("NumPy's BLAS is not the OpenBLAS its wheels bundle")
+    monkeypatch.setattr(python.learner, "products", lambda rows: None)
+    for start in [(0.0, 0.0, 0.02, 0.0), (0.5, -0.3, -0.1, 0.4)]:
+        model.set_state(start)
+        for agent in agents:
+            agent._fine_tune(model.clone())
+        assert compiled.last_fine_tuning == python.last_fine_tuning
+    for name in ("params", "target", "m", "v"):
+        expected = getattr(python.learner, name)
+        np.testing.assert_array_equal(getattr(compiled.learner, name), expected)
+    assert compiled.learner.steps == python.learner.steps == 40  # a fresh Adam per fine-tuning
+    untrained = DoubleDQN.from_weights(weights, "q", args).params
+    assert validate or not np.array_equal(python.learner.params, untrained)
+    for name in ("features", "actions", "rewards", "next_features", "terminated"):
+        np.testing.assert_array_equal(getattr(compiled.buffer, name), getattr(python.buffer, name))
+    assert (compiled.buffer.size, compiled.buffer.next_row) == (
+        python.buffer.size,
+        python.buffer.next_row,
+    )
+    assert python.buffer.terminated.any()
+    assert compiled.rng.bit_generator.state == python.rng.bit_generator.state

@@ -431,3 +431,103 @@ def greedy_episode(data, start, blas, layout, params, rows, max_steps, rng):  # 
         if done:
             break
     return total, steps
+
+
+@numba.njit(cache=True)
+def replay_steps(  # type: ignore[no-untyped-def]  # pragma: no cover
+    blas,
+    layout,
+    params,
+    grad,
+    m,
+    v,
+    target,
+    size,
+    batch_size,
+    features,
+    actions,
+    rewards,
+    next_features,
+    terminated,
+    gamma,
+    learning_rate,
+    weight_decay,
+    beta1,
+    beta2,
+    eps,
+    corrections1,
+    root_corrections2,
+    tau,
+    rng,
+    done,
+):
+    """One :func:`ddqn_step` per entry of ``corrections1``, each on a fresh sample of rows.
+
+    As ``DoubleDQN.replay_step`` that many times: each step draws ``rng.integers(0, size,
+    batch_size)`` (``ReplayBuffer.sample_index``'s draw, the same numbers) and runs the step
+    with that step's Adam corrections. ``done[0]`` counts the steps made, kept up to date in
+    case one raises.
+    """
+    for s in range(corrections1.shape[0]):
+        index = rng.integers(0, size, batch_size)
+        ddqn_step(
+            blas, layout, params, grad, m, v, target, index, features, actions, rewards,
+            next_features, terminated, gamma, learning_rate, weight_decay, beta1, beta2, eps,
+            corrections1[s], root_corrections2[s], tau,
+        )  # fmt: skip
+        done[0] += 1
+
+
+@numba.njit(cache=True)
+def collect_transitions(  # type: ignore[no-untyped-def]  # pragma: no cover
+    data,
+    state,
+    start,
+    count,
+    epsilon,
+    num_actions,
+    blas,
+    layout,
+    params,
+    features,
+    actions,
+    rewards,
+    next_features,
+    terminated,
+    row,
+    rng,
+    model_rng,
+):
+    """``count`` ε-greedy transitions from ``state`` in a family's compiled step, into a buffer.
+
+    As ``FineTunedDDQNAgent``'s transitions added to its ``ReplayBuffer`` one by one, for a
+    family whose observation is its state vector rounded to float32 (CartPole): per transition
+    ``rng.random() < epsilon`` picks ``rng.integers(0, num_actions)``, else the network's first
+    best action on the observation (one row, as ``DoubleDQN.greedy``); ``family_step`` under
+    ``data``'s θ draws from ``model_rng`` (the planning model's own generator, as its
+    ``transition``); the transition goes to buffer row ``row`` and on, wrapping at the end; a
+    terminal one starts the next from ``start``. ``state`` is left at the state to go on from;
+    returns the row the next transition goes to.
+    """
+    dim = state.shape[0]
+    capacity = features.shape[0]
+    following = np.empty(dim)
+    x = np.empty((1, dim))
+    for _ in range(count):
+        if rng.random() < epsilon:
+            action = rng.integers(0, num_actions)
+        else:
+            for j in range(dim):
+                x[0, j] = np.float64(np.float32(state[j]))
+            action = _first_best(forward_rows(blas, layout, params, x)[0])
+        reward, done = family_step(data, state, following, action, model_rng)
+        for j in range(dim):
+            features[row, j] = np.float32(state[j])
+            next_features[row, j] = np.float32(following[j])
+        actions[row] = action
+        rewards[row] = np.float32(reward)
+        terminated[row] = 1.0 if done else 0.0
+        row = (row + 1) % capacity
+        for j in range(dim):
+            state[j] = start[j] if done else following[j]
+    return row

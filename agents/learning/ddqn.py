@@ -221,6 +221,44 @@ class DoubleDQN(MLPLearner):
         # np.mean's own sum and division: the loss has the NumPy path's bits
         return float(np.add.reduce(squares)) / len(squares)
 
+    def replay_steps(self, buffer: ReplayBuffer, rng: np.random.Generator, count: int) -> int:
+        """``count`` :meth:`replay_step` calls (none while ``buffer`` is empty); returns how many.
+
+        The same draws and bits, in one compiled call where the products allow (no loss is
+        computed then).
+
+        Raises:
+            ValueError: The buffer's feature size is not the network's input size.
+            IndexError: A stored action past the network's outputs (as NumPy's indexing); the
+                steps before it stand and are counted.
+        """
+        if not buffer.size or count <= 0:
+            return 0
+        rows = self.args.batch_size
+        blas = self.products(rows) if rows >= 2 else None
+        if blas is None:
+            for _ in range(count):
+                self.replay_step(buffer, rng)
+            return count
+        self._checked_rows(buffer.features, 2)
+        beta1, beta2 = ADAM_BETAS
+        steps = range(self.steps + 1, self.steps + count + 1)
+        # Python's float powers, as _whole_step's (numba's integer power rounds otherwise)
+        corrections1 = np.array([1.0 - beta1**step for step in steps])
+        root_corrections2 = np.array([math.sqrt(1.0 - beta2**step) for step in steps])
+        done = np.zeros(1, dtype=np.int64)
+        try:
+            compiled_step().replay_steps(  # type: ignore[union-attr]  # products: numba is there
+                blas, self.layout, self.params, self.grad, self.m, self.v, self.target,
+                buffer.size, rows, buffer.features, buffer.actions, buffer.rewards,
+                buffer.next_features, buffer.terminated, self.args.gamma, self.learning_rate,
+                self.weight_decay, beta1, beta2, ADAM_EPS, corrections1, root_corrections2,
+                self.args.tau, rng, done,
+            )  # fmt: skip
+        finally:
+            self.steps += int(done[0])
+        return count
+
     def _whole_step(self, blas: np.ndarray, index: np.ndarray, buffer: ReplayBuffer) -> Any:
         """The compiled gradient step on ``buffer``'s rows ``index``: the squared TD errors.
 

@@ -53,10 +53,11 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
+from gymnasium import spaces
 from ns_pz.agents.base import Agent
 from ns_pz.agents.learning.config import DDQNArgs
 from ns_pz.agents.learning.ddqn import DoubleDQN, compiled_step
@@ -64,7 +65,7 @@ from ns_pz.agents.learning.features import features
 from ns_pz.agents.learning.mlp import one_blas_thread
 from ns_pz.agents.learning.q_agent import check_fine_tuning
 from ns_pz.agents.learning.replay import ReplayBuffer
-from ns_pz.agents.search.compiled import compile_model, kernels
+from ns_pz.agents.search.compiled import CompiledModel, compile_model, kernels
 
 #: A candidate network replaces the kept one only if its mean scoring return is higher by more
 #: than this many standard errors of the paired differences (a one-sided test at about 2.5 %).
@@ -194,23 +195,22 @@ class FineTunedDDQNAgent(Agent):
             kept_returns, scored = self._greedy_returns(model, start, scoring_seed)
         learner.sync_target()
         learner.reset_optimizer()  # a fresh Adam per fine-tuning
-        transitions = self._transitions(model, start)
+        add = self._collector(model, start)
         made = updates = accepted = 0
         for k in range(self.checks):
             if self.time_budget is None:
                 share = _share(self.model_steps, k, self.checks)
-                for _ in range(share):
-                    self.buffer.add(*next(transitions))
+                add(share)
                 made += share
-                for _ in range(_share(self.gradient_steps, k, self.checks)):
-                    updates += self._update()
+                steps = _share(self.gradient_steps, k, self.checks)
+                updates += learner.replay_steps(self.buffer, self.rng, steps)
             else:
                 deadline = time.perf_counter() + self.time_budget / self.checks
                 while time.perf_counter() < deadline:
-                    self.buffer.add(*next(transitions))
+                    add(1)
                     made += 1
                     if self.buffer.size >= self.args.batch_size:
-                        updates += self._update()
+                        updates += learner.replay_steps(self.buffer, self.rng, 1)
             if not self.validate:
                 kept, accepted = learner.params.copy(), k + 1
                 continue
@@ -228,6 +228,45 @@ class FineTunedDDQNAgent(Agent):
             "scoring_steps": scored,
             "kept_return": float(np.mean(kept_returns)) if self.validate else None,
         }
+
+    def _collector(self, model: Any, start: Any) -> Callable[[int], None]:
+        """A function adding its argument's number of ε-greedy transitions to the buffer.
+
+        The transitions start at ``start`` and go back to it after a terminal one; they go on
+        from call to call. Where :meth:`_compiled_family` allows and the greedy action runs
+        compiled (:meth:`~ns_pz.agents.learning.ddqn.DoubleDQN.products` on one row), one
+        compiled call adds them (``_mlp_kernels.collect_transitions``: the same draws, actions
+        and stored bits as :meth:`_transitions`); otherwise :meth:`_transitions` does.
+        """
+        learner = self.learner
+        compiled = None
+        if isinstance(self.space, spaces.Box) and learner.products(1) is not None:
+            compiled = self._compiled_family(model)
+        vector = None if compiled is None else compiled.family.to_vector(start)
+        if compiled is None or vector is None or len(vector) != learner.widths[0]:
+            transitions = self._transitions(model, start)
+
+            def add(count: int) -> None:
+                for _ in range(count):
+                    self.buffer.add(*next(transitions))
+
+            return add
+        start_vector = np.array(vector, dtype=np.float64)
+        state = start_vector.copy()
+        num_actions = int(model.action_space.n)
+        data, model_rng = compiled.data, compiled.rng
+
+        def add_compiled(count: int) -> None:
+            buffer = self.buffer
+            compiled_step().collect_transitions(  # type: ignore[union-attr]  # numba is there
+                data, state, start_vector, count, self.epsilon, num_actions,
+                learner.products(1), learner.layout, learner.params, buffer.features,
+                buffer.actions, buffer.rewards, buffer.next_features, buffer.terminated,
+                buffer.next_row, self.rng, model_rng,
+            )  # fmt: skip
+            buffer.wrote(count)
+
+        return add_compiled
 
     def _transitions(self, model: Any, start: Any) -> Iterator[tuple[Any, ...]]:
         """ε-greedy transitions from ``start``, back to ``start`` after a terminal one.
@@ -247,13 +286,6 @@ class FineTunedDDQNAgent(Agent):
             next_x = features(self.space, observe(next_state))
             yield x, action, float(reward), next_x, terminal
             state, x = (start, start_x) if terminal else (next_state, next_x)
-
-    def _update(self) -> int:
-        """One Double-DQN step on a sampled batch (none while the buffer is empty)."""
-        if not self.buffer.size:
-            return 0
-        self.learner.replay_step(self.buffer, self.rng)
-        return 1
 
     def _greedy_returns(self, model: Any, start: Any, seed: int) -> tuple[np.ndarray, int]:
         """``[evaluation_episodes]`` greedy returns from ``start`` and the steps they took.
@@ -316,15 +348,24 @@ class FineTunedDDQNAgent(Agent):
     def _compiled_scoring(self, model: Any) -> tuple[Any, Any, np.ndarray] | None:
         """``(data, to_vector, blas)`` to score in compiled code, or None for Python.
 
-        Possible where the family is one of ns_pz's with a compiled step that observes its state
-        vector as float32 (CartPole) and the network's products can run compiled on the
-        scoring's rows
-        (:meth:`~ns_pz.agents.learning.ddqn.DoubleDQN.products`): the same returns, in one
-        call per scoring instead of a NumPy forward pass and a Python step per step.
+        Possible where :meth:`_compiled_family` is and the network's products can run compiled
+        on the scoring's rows (:meth:`~ns_pz.agents.learning.ddqn.DoubleDQN.products`): the
+        same returns, in one call per scoring instead of a NumPy forward pass and a Python step
+        per step.
         """
         blas = self.learner.products(self.evaluation_episodes)
-        if blas is None:
+        compiled = self._compiled_family(model) if blas is not None else None
+        if compiled is None:
             return None
+        vector = compiled.family.to_vector
+        return compiled.data, lambda state: np.asarray(vector(state), dtype=np.float64), blas
+
+    def _compiled_family(self, model: Any) -> CompiledModel | None:
+        """``model`` compiled where its family has a compiled step fit for the DQN kernels.
+
+        That is one of ns_pz's families whose observation is its state vector rounded to
+        float32 (CartPole); otherwise None.
+        """
         compiled = compile_model(model, "auto")
         if compiled is None or not compiled.family.float32_observation:
             return None
@@ -332,9 +373,8 @@ class FineTunedDDQNAgent(Agent):
         for cls in (type(model.family), type(compiled.data)):
             if not cls.__module__.startswith("ns_pz."):
                 return None
-        kernels()  # the families' compiled steps register before the scoring kernel compiles
-        vector = compiled.family.to_vector
-        return compiled.data, lambda state: np.asarray(vector(state), dtype=np.float64), blas
+        kernels()  # the families' compiled steps register before a kernel that calls them
+        return compiled
 
     def __repr__(self) -> str:
         budget = (

@@ -53,6 +53,16 @@ class ReplayBuffer:
         self._next = (i + 1) % self.capacity
         self.size = min(self.size + 1, self.capacity)
 
+    @property
+    def next_row(self) -> int:
+        """The row the next transition goes to."""
+        return self._next
+
+    def wrote(self, count: int) -> None:
+        """Count ``count`` transitions written in place from :attr:`next_row` on (wrapping)."""
+        self._next = (self._next + count) % self.capacity
+        self.size = min(self.size + count, self.capacity)
+
     def sample(self, batch_size: int, rng: np.random.Generator) -> Batch:
         """``batch_size`` transitions drawn uniformly with replacement."""
         return self.batch(self.sample_index(batch_size, rng))
