@@ -395,6 +395,78 @@ def test_detailed_alarm_then_refinement_finds_the_parameter():
     assert believed.masscart == pytest.approx(1.0, rel=1e-3)
 
 
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+def test_the_fit_is_the_same_with_and_without_the_batched_kernel():
+    """The batched scoring and the scalar one fit the same θ and score alike.
+
+    CartPole transitions under a heavier pole: the batched scoring (one array call per round)
+    and the scalar one (a step per value and transition) pick the same value, and their loss
+    sums agree (to rounding: they add in other orders), overflows exactly (a NaN sum as
+    infinite, an infinite one as the largest float, as ``np.nan_to_num(nan=inf)`` does).
+    """
+    from ns_pz.monitor.drift import _Scorer
+
+    family = CartPoleFamily()
+    theta0 = CartPoleParams()
+    heavy = theta0.replace(masspole=1.0)
+    monitor = PredictionErrorMonitor()
+    monitor.bind(family, theta0)
+    rng = np.random.default_rng(0)
+    state = family.initial_state(rng)
+    data = []
+    for t in range(6):
+        action = t % 2
+        after, _, _ = family.step(state, action, heavy, rng)
+        data.append((state, action, np.asarray(family.observe(after), np.float64)))
+        state = after
+    fast = (0.0, 2e40, 0.0, 0.0)  # its next x overflows the float32 observation
+    overflowing = [*data, (fast, 0, np.zeros(4))]
+    unexplained = [*data, (state, 0, np.full(4, np.nan))]
+    columns = np.array([monitor._columns["masspole"]] * 2 + [monitor._columns["length"]] * 2)
+    values = np.array([0.1, 1.0, 0.5, 2.0])
+
+    def scored() -> tuple[object, ...]:
+        return (
+            monitor._estimate(theta0, data, rng),
+            *(
+                _Scorer(monitor, theta0, d, rng).losses(columns, values)
+                for d in (data, overflowing, unexplained)
+            ),
+        )
+
+    batched = scored()
+    kernel, monitor._kernel = monitor._kernel, None
+    try:
+        scalar = scored()
+    finally:
+        monitor._kernel = kernel
+    assert kernel is not None
+    assert batched[0] == scalar[0] and batched[0].masspole == pytest.approx(1.0, rel=1e-3)
+    np.testing.assert_allclose(batched[1], scalar[1], rtol=1e-12)
+    for fast_sums, slow_sums in zip(batched[2:], scalar[2:], strict=True):
+        np.testing.assert_array_equal(fast_sums, slow_sums)
+    assert (batched[2] == np.finfo(np.float64).max).all() and np.isinf(batched[3]).all()
+
+
+def test_zoom_grids_are_numpys_linspace():
+    """Every row of the refinement's grids is ``np.linspace(low, high, points)`` bit for bit.
+
+    Brackets of zero width and of subnormal width included.
+    """
+    from ns_pz.monitor.drift import _linspaces
+
+    rng = np.random.default_rng(1)
+    lows = rng.normal(size=2000) * 10.0 ** rng.uniform(-5, 5, 2000)
+    widths = np.abs(rng.normal(size=2000)) * 10.0 ** rng.uniform(-8, 3, 2000)
+    lows = np.concatenate([lows, rng.uniform(0, 1e-310, 10), [2.5, -0.0]])
+    widths = np.concatenate([widths, rng.integers(0, 9, 10) * 5e-324, [0, 0]])
+    brackets = np.stack([lows, lows + widths], axis=1)
+    for points in (17, 10):  # 10: a step of a ninth, whose multiples miss high
+        expected = np.array([np.linspace(low, high, points) for low, high in brackets])
+        assert np.array_equal(_linspaces(brackets, points).view(np.int64), expected.view(np.int64))
+
+
 # -- noisy oracle ----------------------------------------------------------------------------
 def _oracle_run(monitor, changes: set[int], steps: int, seed: int) -> list[int]:
     memory = monitor.initial_memory()

@@ -80,6 +80,7 @@ ZOOM_POINTS = 17
 """Values scored per round of the refinement between a best grid value's neighbours."""
 ZOOM_ROUNDS = 6
 """Rounds of the refinement (each narrows the bracket eightfold)."""
+_LARGEST = float(np.finfo(np.float64).max)
 
 
 class PredictionErrorMemory:
@@ -290,24 +291,32 @@ class PredictionErrorMonitor(Detector):
         Every parameter's grid is scored in one batch; then each parameter's best grid value
         is refined between its two grid neighbours by :data:`ZOOM_ROUNDS` rounds of
         :data:`ZOOM_POINTS` evenly spaced values, every parameter in the same batch (a round
-        narrows each bracket eightfold: to about 4e-6 of its first width at the end).
+        narrows each bracket eightfold: to about 4e-6 of its first width at the end). Ties go
+        to the first row scored.
         """
         data = list(transitions)
         names = self._names
         if not names or not data:
             return reference
-        grids: dict[str, list[float]] = {}
+        scorer = _Scorer(self, reference, data, rng)
+        grids: dict[str, np.ndarray] = {}
         for name in names:
-            spec = reference.spec(name)
             base = float(getattr(reference, name))
-            grid = [v for v in self._candidates(base) if spec.contains(v) and v != base]
-            if grid:
+            low, high = reference.spec(name).finite_range
+            grid = self._candidates(base)
+            grid = grid[(grid >= low) & (grid <= high) & (grid != base)]
+            if len(grid):
                 grids[name] = grid
+        columns = self._columns
         first = names[0]
-        rows = [(first, float(getattr(reference, first)))]
-        rows += [(name, v) for name, grid in grids.items() for v in grid]
-        losses = self._losses(reference, rows, data, rng).tolist()
-        best_loss, best = losses[0], (first, rows[0][1])
+        now = float(getattr(reference, first))
+        losses = scorer.losses(
+            np.concatenate(
+                [[columns[first]], *(np.full(len(grid), columns[n]) for n, grid in grids.items())]
+            ),
+            np.concatenate([[now], *grids.values()]),
+        )
+        best_loss, best = losses[0], (first, now)
         brackets: dict[str, tuple[float, float]] = {}
         at = 1
         for name, grid in grids.items():
@@ -315,82 +324,125 @@ class PredictionErrorMonitor(Detector):
             at += len(grid)
             i = int(np.argmin(scores))
             if scores[i] < best_loss:
-                best_loss, best = scores[i], (name, grid[i])
+                best_loss, best = scores[i], (name, float(grid[i]))
             low, high = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
             if low < high:
-                brackets[name] = (low, high)
+                brackets[name] = (float(low), float(high))
+        zoomed = list(brackets)
+        zoomed_columns = np.repeat([columns[name] for name in zoomed], ZOOM_POINTS)
+        bounds = np.array(list(brackets.values()))
+        rows = np.arange(len(zoomed))
         for _ in range(ZOOM_ROUNDS if brackets else 0):
-            rows = [
-                (name, float(v))
-                for name, (low, high) in brackets.items()
-                for v in np.linspace(low, high, ZOOM_POINTS)
-            ]
-            losses = self._losses(reference, rows, data, rng).tolist()
-            for k, name in enumerate(brackets):
-                scores = losses[k * ZOOM_POINTS : (k + 1) * ZOOM_POINTS]
-                values = rows[k * ZOOM_POINTS : (k + 1) * ZOOM_POINTS]
-                i = int(np.argmin(scores))
-                if scores[i] < best_loss:
-                    best_loss, best = scores[i], values[i]
-                brackets[name] = (values[max(i - 1, 0)][1], values[min(i + 1, ZOOM_POINTS - 1)][1])
+            values = _linspaces(bounds, ZOOM_POINTS)
+            scores = scorer.losses(zoomed_columns, values.reshape(-1)).reshape(len(zoomed), -1)
+            picks = scores.argmin(axis=1)
+            for k, i in enumerate(picks.tolist()):
+                if scores[k, i] < best_loss:
+                    best_loss, best = scores[k, i], (zoomed[k], float(values[k, i]))
+            below = values[rows, np.maximum(picks - 1, 0)]
+            above = values[rows, np.minimum(picks + 1, ZOOM_POINTS - 1)]
+            bounds = np.stack([below, above], axis=1)
         name, value = best
         if value == getattr(reference, name):
             return reference
         return reference.replace(**{name: value})
 
-    def _losses(
-        self,
-        reference: Params,
-        rows: list[tuple[str, float]],
-        data: list[tuple[Any, Any, np.ndarray]],
-        rng: np.random.Generator,
-    ) -> np.ndarray:
-        """Squared prediction errors summed over ``data``, one sum per (parameter, value) row.
-
-        Each row is ``reference`` with one parameter set to a value. With a batched kernel of
-        the family (:mod:`ns_pz.envs.batched`), every (row, transition) pair is predicted in
-        one array call; otherwise one scalar step each.
-        """
-        kernel = self._kernel
-        if kernel is None:
-            losses = np.array(
-                [
-                    sum(
-                        float(np.sum(self.errors(reference.replace(**{n: v}), s, a, o, rng) ** 2))
-                        for s, a, o in data
-                    )
-                    for n, v in rows
-                ]
-            )
-            return np.nan_to_num(losses, nan=np.inf)
-        count, steps = len(rows), len(data)
-        states = np.array([kernel.pack(s) for s, _, _ in data], kernel.state_dtype)
-        actions = np.array([a for _, a, _ in data])
-        observed = np.stack([o for _, _, o in data])
-        theta = np.tile(reference.flat(), (count, 1))
-        columns = self._columns
-        theta[np.arange(count), [columns[n] for n, _ in rows]] = [v for _, v in rows]
-        predicted, _, _ = kernel.step(
-            np.tile(states, (count, *([1] * (states.ndim - 1)))),
-            np.tile(actions, (count, *([1] * (actions.ndim - 1)))),
-            np.repeat(theta, steps, axis=0),
-            None,
-        )
-        guess = np.asarray(kernel.observe(predicted), np.float64).reshape(count, steps, -1)
-        errors = np.abs(guess - observed) / (1.0 + np.abs(observed)) / self.tolerance
-        return np.nan_to_num(np.sum(errors * errors, axis=(1, 2)), nan=np.inf)
-
-    def _candidates(self, base: float) -> list[float]:
+    def _candidates(self, base: float) -> np.ndarray:
         """Grid values around ``base``, increasing (around 1 when ``base`` is 0)."""
         if base == 0.0:
-            return sorted({f - 1.0 for f in self.factors} | {1.0 - f for f in self.factors})
-        return sorted(base * f for f in self.factors)
+            return np.array(
+                sorted({f - 1.0 for f in self.factors} | {1.0 - f for f in self.factors})
+            )
+        return np.sort(base * np.array(self.factors))
 
     def __repr__(self) -> str:
         return (
             f"PredictionErrorMonitor(threshold={self.threshold}, tolerance={self.tolerance}, "
             f"window={self.window}, params={self.watched!r})"
         )
+
+
+class _Scorer:
+    """Squared prediction errors of one estimate's transitions under θ values, summed per value.
+
+    A value is the reference θ with one parameter set; every (value, transition) pair is
+    predicted in one array call where the family has a batched kernel
+    (:mod:`ns_pz.envs.batched`), else one scalar step each. The transitions' arrays are built
+    once per estimate, and their copies for a batch of a given size once per size.
+    """
+
+    def __init__(
+        self,
+        monitor: PredictionErrorMonitor,
+        reference: Params,
+        data: list[tuple[Any, Any, np.ndarray]],
+        rng: np.random.Generator,
+    ) -> None:
+        self.monitor, self.reference, self.data, self.rng = monitor, reference, data, rng
+        self.kernel = kernel = monitor._kernel
+        self.tiled: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        if kernel is not None:
+            self.states = np.array([kernel.pack(s) for s, _, _ in data], kernel.state_dtype)
+            self.actions = np.array([a for _, a, _ in data])
+            self.observed = np.stack([o for _, _, o in data])
+            self.scale = 1.0 + np.abs(self.observed)
+            self.theta = reference.flat()
+
+    def losses(self, columns: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """One sum per row ``k``: the reference with ``columns[k]`` set to ``values[k]``.
+
+        ``columns[k]`` is a scalar parameter's column in the flat θ (``Params.flat``). A NaN
+        sum (a prediction that overflows) counts as infinite, an infinite one as the largest
+        float (as ``np.nan_to_num(sums, nan=np.inf)``).
+        """
+        monitor, data, rng = self.monitor, self.data, self.rng
+        kernel = self.kernel
+        if kernel is None:
+            named = {column: name for name, column in monitor._columns.items()}
+            sums = np.array(
+                [
+                    sum(
+                        float(np.sum(monitor.errors(self._theta(named[c], v), s, a, o, rng) ** 2))
+                        for s, a, o in data
+                    )
+                    for c, v in zip(columns.tolist(), values.tolist(), strict=True)
+                ]
+            )
+        else:
+            count, steps = len(values), len(data)
+            if count not in self.tiled:
+                self.tiled[count] = (
+                    np.tile(self.states, (count, *([1] * (self.states.ndim - 1)))),
+                    np.tile(self.actions, (count, *([1] * (self.actions.ndim - 1)))),
+                )
+            states, actions = self.tiled[count]
+            theta = np.empty((count, steps, len(self.theta)))
+            theta[...] = self.theta
+            theta[np.arange(count), :, columns] = values[:, None]
+            predicted, _, _ = kernel.step(states, actions, theta.reshape(count * steps, -1), None)
+            guess = np.asarray(kernel.observe(predicted), np.float64).reshape(count, steps, -1)
+            errors = np.abs(guess - self.observed) / self.scale / monitor.tolerance
+            sums = np.sum(errors * errors, axis=(1, 2))
+        return np.where(np.isnan(sums), np.inf, np.minimum(sums, _LARGEST))
+
+    def _theta(self, name: str, value: float) -> Params:
+        return self.reference.replace(**{name: value})
+
+
+def _linspaces(brackets: np.ndarray, points: int) -> np.ndarray:
+    """``np.linspace(low, high, points)`` for each ``(low, high)`` row of ``brackets``.
+
+    The same values as NumPy's, row by row (``k * step + low``, ``high`` last; ``k / div *
+    delta + low`` in a row whose step is 0), computed for every row at once.
+    """
+    low, high = brackets[:, :1], brackets[:, 1:]
+    delta = high - low
+    div = points - 1
+    step = delta / div
+    k = np.arange(points, dtype=np.float64)
+    values = np.where(step == 0.0, k / div * delta, k * step) + low
+    values[:, -1] = high[:, 0]
+    return values
 
 
 def _array_kernel(family: EnvFamily) -> Any:
