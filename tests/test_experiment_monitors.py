@@ -64,6 +64,48 @@ def test_detector_column_runs_the_named_monitor_at_its_level(tmp_path: Path) -> 
     }
 
 
+def test_a_specs_detector_envs_share_one_bound_monitor(tmp_path: Path) -> None:
+    """Every WD env of a spec gets the same bound monitor, and it alarms as fresh ones do.
+
+    Its episodes are what a fresh monitor of their own makes of them (the monitor keeps no
+    episode's state); another spec gets its own.
+    """
+    import numpy as np
+
+    from ns_pz import make_gym
+
+    experiment = load_spec(write(tmp_path, WATCHED))
+    cell = experiment.cells()[2]
+    envs = [experiment.make_env(cell) for _ in range(3)]
+    assert envs[0]._process.monitor is envs[2]._process.monitor
+
+    def alarms(env: object, seed: int) -> list[int]:
+        observation, _ = env.reset(seed=seed)  # type: ignore[attr-defined]
+        rng = np.random.default_rng(seed)
+        flagged = []
+        for t in range(40):
+            observation, *_ = env.step(int(rng.integers(4)))  # type: ignore[attr-defined]
+            flagged += [t] if observation["env_change"].any() else []
+        return flagged
+
+    shared = [alarms(env, seed) for seed, env in enumerate(envs)]
+    fresh = []
+    for seed in range(3):
+        env = make_gym(
+            experiment.env,
+            params=experiment.theta0(),
+            nature=experiment.nature(cell.index),
+            notification=experiment.level_of(cell.notification),
+            monitor=make_monitor("cusum", {"threshold": 10.0}),
+            max_episode_steps=experiment.horizon,
+        )
+        assert env._process.monitor is not envs[0]._process.monitor
+        fresh.append(alarms(env, seed))
+    assert shared == fresh and any(shared)
+    other = load_spec(write(tmp_path, WATCHED.replace("threshold = 10.0", "threshold = 9.0")))
+    assert other.make_env(cell)._process.monitor is not envs[0]._process.monitor
+
+
 def test_a_spec_without_monitor_keeps_its_record(tmp_path: Path) -> None:
     """No ``monitor`` key unless one is given: runs from before keep their digest."""
     text = WATCHED.replace(', "detector"]', "]")
