@@ -262,3 +262,22 @@ def test_paper_sample_plays_the_first_seeds_and_projects_them(tmp_path):
     assert out.strip().splitlines()[-1].split()[0] == "all"
     rows = (tmp_path / "out" / "tiny-quick" / "trials.jsonl").read_text().splitlines()
     assert len(rows) == 2 * 2 * 2  # 2 settings × 2 levels × 1 agent × 2 seeds
+    # the run's own cost, read back from its rows
+    work = BENCH.parent / "bench_run_work.py"
+    argv = [sys.executable, str(work), str(tmp_path / "out")]
+    lines = subprocess.run(argv, capture_output=True, text=True, check=True).stdout.splitlines()
+    assert lines[0].split()[:4] == ["tiny-quick", "8", "trials", "(0"]
+    assert lines[1].split()[0] == "all" and lines[2].split()[0] == "random"
+    with pytest.raises(subprocess.CalledProcessError):
+        subprocess.run([*argv[:2], str(tmp_path)], capture_output=True, check=True)
+
+
+def test_detector_benchmark_times_the_wd_column_and_digests_its_notifications():
+    """bench_detector.py plays a table's WD cells and prints its costs and a digest."""
+    bench = BENCH.parent / "bench_detector.py"
+    argv = [sys.executable, str(bench), "cartpole-single", "--size", "quick"]
+    argv += ["--seeds", "1", "--steps", "20"]
+    runs = [subprocess.run(argv, capture_output=True, text=True, check=True).stdout for _ in "ab"]
+    words = runs[0].split()
+    assert words[0] == "cartpole-single" and "notifications" in words
+    assert runs[0].split()[-1] == runs[1].split()[-1]  # the same notifications each run

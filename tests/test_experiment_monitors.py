@@ -106,6 +106,21 @@ def test_a_specs_detector_envs_share_one_bound_monitor(tmp_path: Path) -> None:
     assert other.make_env(cell)._process.monitor is not envs[0]._process.monitor
 
 
+def test_a_process_keeps_the_detectors_of_its_last_specs_only(tmp_path: Path) -> None:
+    """Bound detectors are dropped oldest first beyond the last few specs' (memory bounded)."""
+    from ns_pz.experiments import spec as spec_module
+
+    kept = spec_module._DETECTORS_KEPT
+    monitors = []
+    for k in range(kept + 1):
+        text = WATCHED.replace("threshold = 10.0", f"threshold = {20.0 + k}")
+        experiment = load_spec(write(tmp_path, text))
+        monitors.append(experiment.make_env(experiment.cells()[2])._process.monitor)
+    assert len(spec_module._DETECTORS) <= kept
+    held = list(spec_module._DETECTORS.values())
+    assert monitors[-1] in held and monitors[0] not in held
+
+
 def test_a_spec_without_monitor_keeps_its_record(tmp_path: Path) -> None:
     """No ``monitor`` key unless one is given: runs from before keep their digest."""
     text = WATCHED.replace(', "detector"]', "]")

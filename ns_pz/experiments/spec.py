@@ -140,7 +140,9 @@ class Change:
 
 
 _DETECTORS: dict[str, Monitor] = {}
-"""Each spec's detector (:meth:`ExperimentSpec._detector`), by the spec's digest."""
+"""The last specs' detectors (:meth:`ExperimentSpec._detector`), by the spec's digest."""
+_DETECTORS_KEPT = 8
+"""How many specs' bound detectors a process keeps (CliffWalking's holds about 11 MB)."""
 
 
 @dataclass(frozen=True)
@@ -387,6 +389,8 @@ class ExperimentSpec:
             return None
         key = self.digest()
         if key not in _DETECTORS:
+            if len(_DETECTORS) >= _DETECTORS_KEPT:
+                del _DETECTORS[next(iter(_DETECTORS))]  # the oldest
             _DETECTORS[key] = self.monitor.make()
         return _DETECTORS[key]
 
