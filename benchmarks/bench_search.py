@@ -250,6 +250,44 @@ def alphazero_episode(budget: float, steps: int, remember: bool) -> tuple[float,
     return seconds / decisions, remembered / max(1, nodes)
 
 
+def forward_pass_seconds(inputs: int, rounds: int = 5) -> float:
+    """One forward pass of the CartPole search's network in a compiled loop (best of rounds).
+
+    The network has the specs' full-size trunk and random weights; the inputs are CartPole-like
+    states rounded to float32, as the search hands them over.
+    """
+    import numba
+    from ns_pz.agents.learning import _puct_kernels as puct_kernels
+
+    family = planning_model("CartPole").family
+    args = AlphaZeroArgs().for_family(family)
+    weights, layout, parts = random_policy_value(
+        family.observation_space, args.hidden or (), 2
+    ).packed()
+    rng = np.random.default_rng(0)
+    states = rng.normal(size=(inputs, 4)) * np.array([1.0, 2.0, 0.2, 2.0])
+    states = states.astype(np.float32).astype(np.float64)
+
+    @numba.njit
+    def passes(weights, layout, parts, states):  # type: ignore[no-untyped-def]
+        scratch, nonzero = puct_kernels.network_scratch(layout, states.shape[1])
+        priors = np.empty(2)
+        total = 0.0
+        for i in range(states.shape[0]):
+            total += puct_kernels.network_into(
+                weights, layout, parts, states[i], priors, scratch, nonzero
+            )
+        return total
+
+    passes(weights, layout, parts, states[:2])  # compile outside the timing
+    best = float("inf")
+    for _ in range(rounds):
+        start = time.perf_counter()
+        passes(weights, layout, parts, states)
+        best = min(best, time.perf_counter() - start)
+    return best / inputs
+
+
 def measure_alphazero(budget: float, repeats: int) -> None:
     """Print one AlphaZero decision's time on CartPole, compiled and reference."""
     m = max(2, int(500 * budget))
@@ -282,6 +320,9 @@ def measure_alphazero(budget: float, repeats: int) -> None:
         seconds, share = alphazero_episode(budget, steps, remember)
         label = "kept" if remember else "cleared before each decision"
         print(f"  {label:30s} {_ms(seconds):>10s} {share:>17.0%}")
+    inputs = 2_000 if budget < 1.0 else 20_000
+    seconds = forward_pass_seconds(inputs)
+    print(f"\nIts network's forward pass alone (compiled, {inputs} inputs): {seconds * 1e6:.2f} µs")
 
 
 def measure_steps(names: list[str], steps: int) -> None:
