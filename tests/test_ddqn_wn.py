@@ -497,3 +497,33 @@ def test_on_cartpole_a_compiled_fine_tuning_is_the_python_one(
     )
     assert python.buffer.terminated.any()
     assert compiled.rng.bit_generator.state == python.rng.bit_generator.state
+
+
+def test_a_compiled_collection_refuses_a_buffer_of_another_width():
+    """The compiled kernel writes buffer rows unchecked, so a mismatch is refused first."""
+    pytest.importorskip("numba")
+    from ns_pz.agents.learning.ddqn_wn import FineTunedDDQNAgent
+
+    env = ns_pz.make_gym("ns_pz/CartPole-v0")
+    env.reset(seed=0)
+    weights = {
+        "q.0.weight": np.ones((8, 4)),
+        "q.0.bias": np.zeros(8),
+        "q.1.weight": np.ones((2, 8)),
+        "q.1.bias": np.zeros(2),
+    }
+    agent = FineTunedDDQNAgent(
+        weights,
+        env.family.observation_space,
+        DDQNArgs(hidden=(8,), batch_size=4, max_episode_steps=10),
+        model_steps=10,
+        gradient_steps=2,
+        epsilon=0.5,
+        validate=False,
+    )
+    agent.reset(np.random.default_rng(0))
+    if agent.learner.products(1) is None:
+        pytest.skip("NumPy's BLAS is not the OpenBLAS its wheels bundle")
+    agent.buffer = type(agent.buffer)(50, 5)
+    with pytest.raises(ValueError, match="holds 5 features; the model's states have 4"):
+        agent._fine_tune(env.planning_model())

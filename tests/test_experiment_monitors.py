@@ -73,11 +73,14 @@ def test_a_specs_detector_envs_share_one_bound_monitor(tmp_path: Path) -> None:
     import numpy as np
 
     from ns_pz import make_gym
+    from ns_pz.experiments import spec as spec_module
 
-    experiment = load_spec(write(tmp_path, WATCHED))
+    before = set(spec_module._DETECTORS)
+    experiment = load_spec(write(tmp_path, WATCHED))  # its check builds a WD env too
     cell = experiment.cells()[2]
     envs = [experiment.make_env(cell) for _ in range(3)]
     assert envs[0]._process.monitor is envs[2]._process.monitor
+    assert len(set(spec_module._DETECTORS) - before) <= 1  # the check's and the trials' one
 
     def alarms(env: object, seed: int) -> list[int]:
         observation, _ = env.reset(seed=seed)  # type: ignore[attr-defined]

@@ -258,6 +258,11 @@ class FineTunedDDQNAgent(Agent):
 
         def add_compiled(count: int) -> None:
             buffer = self.buffer
+            if buffer.features.shape[1] != len(state):  # the kernel writes rows unchecked
+                raise ValueError(
+                    f"the replay buffer holds {buffer.features.shape[1]} features; "
+                    f"the model's states have {len(state)}"
+                )
             compiled_step().collect_transitions(  # type: ignore[union-attr]  # numba is there
                 data, state, start_vector, count, self.epsilon, num_actions,
                 learner.products(1), learner.layout, learner.params, buffer.features,

@@ -59,7 +59,13 @@ class ReplayBuffer:
         return self._next
 
     def wrote(self, count: int) -> None:
-        """Count ``count`` transitions written in place from :attr:`next_row` on (wrapping)."""
+        """Count ``count`` transitions written in place from :attr:`next_row` on (wrapping).
+
+        Raises:
+            ValueError: ``count`` is negative.
+        """
+        if count < 0:
+            raise ValueError(f"count={count!r} must be >= 0")
         self._next = (self._next + count) % self.capacity
         self.size = min(self.size + count, self.capacity)
 

@@ -140,7 +140,7 @@ class Change:
 
 
 _DETECTORS: dict[str, Monitor] = {}
-"""The last specs' detectors (:meth:`ExperimentSpec._detector`), by the spec's digest."""
+"""The last specs' detectors (:meth:`ExperimentSpec._detector`), by what they depend on."""
 _DETECTORS_KEPT = 8
 """How many specs' bound detectors a process keeps (CliffWalking's holds about 11 MB)."""
 
@@ -383,11 +383,19 @@ class ExperimentSpec:
         Binding reads the dynamics at every point of the detector's grid (CliffWalking's
         tabular CUSUM: 53 ms, against 2 ms for the rest of a new env), and a bound monitor
         keeps no episode's state (each env keeps its own memory), so one serves every trial of
-        the spec: the same family and θ_0.
+        the spec (the same family and θ_0), and of any spec with the same environment, θ_0 and
+        monitor.
         """
         if self.monitor is None:
             return None
-        key = self.digest()
+        # what the bound monitor depends on, not the whole spec: a spec checked without its
+        # agents (load_spec's probe) or run at another size shares it
+        record = self.to_dict()
+        key = json.dumps(
+            [record[k] for k in ("env", "env_kwargs", "params", "monitor")],
+            sort_keys=True,
+            separators=(",", ":"),
+        )
         if key not in _DETECTORS:
             if len(_DETECTORS) >= _DETECTORS_KEPT:
                 del _DETECTORS[next(iter(_DETECTORS))]  # the oldest

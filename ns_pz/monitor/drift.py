@@ -392,8 +392,8 @@ class _Scorer:
         """One sum per row ``k``: the reference with ``columns[k]`` set to ``values[k]``.
 
         ``columns[k]`` is a scalar parameter's column in the flat θ (``Params.flat``). A NaN
-        sum (a prediction that overflows) counts as infinite, an infinite one as the largest
-        float (as ``np.nan_to_num(sums, nan=np.inf)``).
+        sum (a NaN observation or prediction) counts as infinite, an infinite one (a prediction
+        that overflows) as the largest float, as ``np.nan_to_num(sums, nan=np.inf)`` does.
         """
         monitor, data, rng = self.monitor, self.data, self.rng
         kernel = self.kernel
@@ -433,7 +433,8 @@ def _linspaces(brackets: np.ndarray, points: int) -> np.ndarray:
     """``np.linspace(low, high, points)`` for each ``(low, high)`` row of ``brackets``.
 
     The same values as NumPy's, row by row (``k * step + low``, ``high`` last; ``k / div *
-    delta + low`` in a row whose step is 0), computed for every row at once.
+    delta + low`` in a row whose step is 0), computed for every row at once. ``points`` is at
+    least 2.
     """
     low, high = brackets[:, :1], brackets[:, 1:]
     delta = high - low
