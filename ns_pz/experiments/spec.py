@@ -142,7 +142,7 @@ class Change:
 _DETECTORS: dict[str, Monitor] = {}
 """The last specs' detectors (:meth:`ExperimentSpec._detector`), by what they depend on."""
 _DETECTORS_KEPT = 8
-"""How many specs' bound detectors a process keeps (CliffWalking's holds about 11 MB)."""
+"""How many bound detectors a process keeps (CliffWalking's holds about 11 MB)."""
 
 
 @dataclass(frozen=True)
@@ -378,13 +378,13 @@ class ExperimentSpec:
         )
 
     def _detector(self) -> Monitor | None:
-        """The detector column's monitor, one per spec in this process, bound at first use.
+        """The detector column's monitor, shared in this process and bound at first use.
 
         Binding reads the dynamics at every point of the detector's grid (CliffWalking's
         tabular CUSUM: 53 ms, against 2 ms for the rest of a new env), and a bound monitor
         keeps no episode's state (each env keeps its own memory), so one serves every trial of
         the spec (the same family and θ_0), and of any spec with the same environment, θ_0 and
-        monitor.
+        monitor settings.
         """
         if self.monitor is None:
             return None
