@@ -242,8 +242,10 @@ class FineTunedDDQNAgent(Agent):
         compiled = None
         if isinstance(self.space, spaces.Box) and learner.products(1) is not None:
             compiled = self._compiled_family(model)
-        vector = None if compiled is None else compiled.family.to_vector(start)
-        if compiled is None or vector is None or len(vector) != learner.widths[0]:
+        start_vector = np.empty(0)  # never a network's width
+        if compiled is not None:
+            start_vector = np.array(compiled.family.to_vector(start), dtype=np.float64)
+        if compiled is None or len(start_vector) != learner.widths[0]:
             transitions = self._transitions(model, start)
 
             def add(count: int) -> None:
@@ -251,7 +253,6 @@ class FineTunedDDQNAgent(Agent):
                     self.buffer.add(*next(transitions))
 
             return add
-        start_vector = np.array(vector, dtype=np.float64)
         state = start_vector.copy()
         num_actions = int(model.action_space.n)
         data, model_rng = compiled.data, compiled.rng
