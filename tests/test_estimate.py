@@ -31,6 +31,14 @@ def _tmp_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("NS_PZ_CACHE_DIR", str(tmp_path / "cache"))
 
 
+@pytest.fixture(autouse=True)
+def _nothing_played_yet(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each test starts as a fresh process would: no agent has paid its one-off costs."""
+    from ns_pz.experiments import estimate as module
+
+    monkeypatch.setattr(module, "_PLAYED", set())
+
+
 def test_estimate_times_every_cell_and_projects(tmp_path: Path) -> None:
     """One cost per agent × cell, projecting its full trial count; the CLI prints the total."""
     experiment = load_spec(write_spec(tmp_path), "full")
@@ -76,9 +84,10 @@ def test_plan_says_what_it_will_do_and_how_long(tmp_path: Path) -> None:
     """The plan counts groups and networks and bounds the time before anything runs."""
     experiment = load_spec(write_spec(tmp_path), "full")
     what = plan([experiment], samples=2, cell_seconds=1.5, probe_seconds=4.0)
-    assert (what.groups, what.networks, what.cached) == (8, 0, 0)
-    assert what.most_seconds == 8 * 1.5 * 5  # a group may run on to 5 times its cap
-    assert "at most about 1.0 min" in what.text()
+    assert (what.groups, what.networks, what.cached, what.warm_ups) == (8, 0, 0, 4)
+    assert what.most_seconds == (8 + 4) * 1.5 * 5  # a group may run on to 5 times its cap
+    assert "4 of them after an untimed trial" in what.text()
+    assert "at most about 1.5 min" in what.text()
     with pytest.raises(TypeError, match="samples=1.5 must be an integer >= 1"):
         plan([experiment], samples=1.5)  # type: ignore[arg-type]
 
@@ -235,4 +244,65 @@ def test_the_cap_cuts_after_min_steps_or_at_its_limit(
     assert cut and wall == cpu == pytest.approx(5000 * step_seconds)
     costs = module._time_group(experiment, expand(experiment)[:2], 2, 1.0, at_horizon=False)
     assert costs.at_horizon and costs.cpu_seconds_per_trial == pytest.approx(5000 * step_seconds)
-    assert round(clock["now"] / step_seconds) == 2 * cut_at  # _time_trial's, _time_group's
+    # _time_trial's, then _time_group's untimed first play and its timed one
+    assert round(clock["now"] / step_seconds) == 3 * cut_at
+
+
+def test_one_off_costs_are_paid_untimed_once_per_agent_level_and_environment(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An agent's first play in a process (kernels compiled or loaded) is not the one timed.
+
+    The fake episode's first play of each agent × level costs 100 s a step, as a kernel
+    compiled mid-episode did: projected to the horizon it read hours where trials take
+    milliseconds. Each agent × level plays once untimed, then every timing is the steady one;
+    the next spec on the same environment pays nothing again.
+    """
+    from ns_pz.agents.evaluation import Episode
+
+    from ns_pz.experiments import estimate as module
+
+    clock = {"now": 0.0}
+    monkeypatch.setattr(module.time, "perf_counter", lambda: clock["now"])
+    monkeypatch.setattr(module.time, "process_time", lambda: clock["now"])
+    paid: set[tuple[str, str]] = set()
+
+    def play(env: object, agent: object, seed: int, stop: Callable[[int], bool]) -> Episode:
+        first = (type(agent).__name__, str(getattr(env, "notification", "")))
+        step = 100.0 if first not in paid else 0.01
+        paid.add(first)
+        for steps in range(1, 11):
+            clock["now"] += step
+            if stop(steps):
+                break
+        return Episode(seed, 0.0, steps, (), ())
+
+    monkeypatch.setattr(module, "run_episode", play)
+    experiment = load_spec(write_spec(tmp_path), "full")
+    costs = estimate(experiment, samples=2, cell_seconds=60.0)
+    assert costs and all(c.seconds_per_trial == pytest.approx(0.1) for c in costs)
+    assert len(module._PLAYED) == 4  # two agents at two levels
+    assert plan([experiment]).warm_ups == 0  # nothing left to pay in this process
+
+
+def test_the_estimate_keeps_the_compiled_kernels_it_finds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Inside the stand-in cache numba reads and writes the user's compiled kernels.
+
+    Its folder moved with ``NS_PZ_CACHE_DIR`` into the temporary cache, so every estimate
+    compiled every kernel again, inside a timed trial.
+    """
+    pytest.importorskip("numba")
+    from ns_pz.agents.search import numba_cache
+
+    from ns_pz.experiments.estimate import stand_in_cache
+
+    before = numba_cache.cache_dir()
+    assert before is not None and before.is_relative_to(tmp_path)
+    with stand_in_cache() as stand_ins:
+        assert stand_ins.parent != tmp_path / "cache"  # networks go to the temporary cache
+        inside = numba_cache.cache_dir()
+        assert inside is not None and inside != before
+        assert inside.resolve() == before.resolve()
+    assert numba_cache.cache_dir() == before
