@@ -1,4 +1,4 @@
-"""Checks of caller input shared by every layer: a flag, a count, a positive number.
+"""Checks of caller input shared by every layer: a flag, a count, a number, a fraction, a seed.
 
 Each returns the value in its plain Python type (a NumPy integer becomes an ``int``) or raises
 an error naming the argument, its value and what is allowed. ``bool`` is refused where a number
@@ -44,3 +44,34 @@ def positive_number(name: str, value: Any) -> float:
     if not 0.0 < number < math.inf:
         raise ValueError(f"{name}={value!r} must be a finite number > 0")
     return number
+
+
+def fraction(name: str, value: Any) -> float:
+    """``value`` as a float if it is a real number strictly between 0 and 1 (not a bool).
+
+    NumPy's floats are real numbers too (``np.float32(0.1)``).
+
+    Raises:
+        ValueError: Anything else.
+    """
+    number = float(value) if isinstance(value, numbers.Real) and not isinstance(value, bool) else 0
+    if not 0.0 < number < 1.0:
+        raise ValueError(f"{name}={value!r} must be a number in (0, 1)")
+    return number
+
+
+SEED_LIMIT = 2**32
+"""Seeds lie in ``[0, 2**32)``: what Stable-Baselines3 and ``np.random.seed`` accept."""
+
+
+def seed_value(name: str, value: Any) -> int:
+    """``value`` as an int if it is an integer (NumPy's too, not a bool) in ``[0, 2**32)``.
+
+    Raises:
+        ValueError: Anything else (``None`` too: a seed asked for must be given).
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise ValueError(f"{name}={value!r} must be an int in [0, 2**32)")
+    if not 0 <= int(value) < SEED_LIMIT:
+        raise ValueError(f"{name}={value!r} must be an int in [0, 2**32)")
+    return int(value)

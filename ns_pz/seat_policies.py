@@ -163,6 +163,20 @@ def _same_layout(own: spaces.Space[Any], expected: spaces.Space[Any]) -> bool:
     return own.shape == expected.shape
 
 
+def is_recurrent(policy: Any) -> bool:
+    """Whether ``policy`` is a recurrent SB3-style model (sb3-contrib's ``RecurrentPPO``).
+
+    Such a model's ``predict`` must be handed the state it returned last and whether an episode
+    starts (:func:`call_recurrent_policy`); asked without them it starts from a fresh state at
+    every call, a different policy. Recognised by the LSTM state shape sb3-contrib's recurrent
+    policies carry, on the model's ``policy`` or on the policy given itself.
+    """
+    for candidate in (getattr(policy, "policy", None), policy):
+        if getattr(candidate, "lstm_hidden_state_shape", None) is not None:
+            return True
+    return False
+
+
 def is_agent(policy: Any) -> bool:
     """Whether ``policy`` is an ns_pz ``Agent`` (``act(obs, model)``, no SB3 ``predict``)."""
     return callable(getattr(policy, "act", None)) and not callable(getattr(policy, "predict", None))
@@ -184,11 +198,19 @@ class DecisionPolicy:
         self.policy = policy
         self.deterministic = flag("deterministic", deterministic)
         self._agent = is_agent(policy)
+        self._recurrent = is_recurrent(policy)
         self._rng: np.random.Generator | None = None
+        self._state: Any = None
+        self._starts = True
 
     def reset(self, rng: np.random.Generator) -> None:
-        """Start an episode: ``rng`` drives an ns_pz agent, or an SB3 model's sampling."""
+        """Start an episode: ``rng`` drives an ns_pz agent, or an SB3 model's sampling.
+
+        A recurrent model (:func:`is_recurrent`) starts the episode from a fresh state and
+        carries its state from one step to the next within it.
+        """
         self._rng = rng
+        self._state, self._starts = None, True
         if self._agent:
             self.policy.reset(rng)
 
@@ -199,6 +221,17 @@ class DecisionPolicy:
             needs_model = getattr(self.policy, "needs_model", True)
             model = process.planning_model() if needs_model else None
             return self.policy.act(observation, model)
+        if self._recurrent:
+            action, self._state = call_recurrent_policy(
+                self.policy,
+                observation,
+                self._state,
+                self._starts,
+                deterministic=self.deterministic,
+                rng=self._rng,
+            )
+            self._starts = False
+            return action
         return call_policy(
             self.policy, observation, deterministic=self.deterministic, rng=self._rng
         )

@@ -226,6 +226,19 @@ def test_bad_training_arguments_are_named():
         TrainArgs(total_timesteps=0)
     with pytest.raises(ValueError, match="rounds=0"):
         rarl(CARTPOLE, rounds=0)
+    with pytest.raises(ValueError, match="seed=-1 must be an int in"):
+        rarl(CARTPOLE, seed=-1)
+    with pytest.raises(TypeError, match="agent_args=\\{'algo': 'PPO'\\} must be a TrainArgs"):
+        rarl(CARTPOLE, agent_args={"algo": "PPO"})
+    with pytest.raises(TypeError, match="rarl trains nature itself"):
+        rarl(CARTPOLE, nature=StaticNature())
+    fixed = lambda obs: 1  # noqa: E731
+    with pytest.raises(ValueError, match="seed=1.5 must be an int in"):
+        train_adversary(CARTPOLE, fixed, seed=1.5)
+    with pytest.raises(ValueError, match="selection_seed=-3"):
+        train_adversary(CARTPOLE, fixed, restarts=2, selection_seed=-3)
+    with pytest.raises(TypeError, match="args=\\{'total_timesteps': 256\\} must be a TrainArgs"):
+        train_adversary(CARTPOLE, fixed, args={"total_timesteps": 256})
 
 
 def test_training_arguments_that_training_sets_or_sb3_lacks_are_named():
@@ -255,8 +268,55 @@ def test_episode_returns_takes_every_kind_of_policy():
     seat = ns_pz.single_agent("ns_pz/FrozenLake-v0", NATURE, {DECISION: planner}, **LAKE)
     with pytest.raises(TypeError, match="ns_pz Agent"):
         episode_returns(seat, planner, [0])
-    with pytest.raises(TypeError, match="policy=3"):
+    with pytest.raises(TypeError, match="policy=3 cannot drive the agent seat.*ns_pz Agent"):
         episode_returns(lake, 3, [0])
+    with pytest.raises(TypeError, match="policy=3 cannot drive the nature seat"):
+        episode_returns(seat, 3, [0])
+
+
+class _Alternating:
+    """A recurrent SB3-style model in miniature: pushes left, right, left... from its state.
+
+    Its state counts the episode's steps; asked without it (state ``None``) it starts afresh
+    and always pushes left. It carries an LSTM state shape, as sb3-contrib's policies do.
+    """
+
+    class policy:  # noqa: N801 - the attribute sb3-contrib's models carry
+        lstm_hidden_state_shape = (1, 1, 1)
+
+    def predict(self, obs, state=None, episode_start=None, deterministic=False):
+        steps = 0 if state is None or (episode_start is not None and episode_start[0]) else state
+        return np.array(steps % 2), steps + 1
+
+
+def test_a_recurrent_model_carries_its_state_through_each_episode():
+    """A recurrent model is played with the state it returned, from a fresh one each episode.
+
+    Asked without its state it started afresh at every step: another policy, scored silently
+    (here: always left, which drops the pole sooner). Nature's seat cannot carry it, so
+    PolicyNature refuses one; PolicyMonitor asks for recurrent=True.
+    """
+    from ns_pz.monitor import PolicyMonitor
+    from ns_pz.seat_policies import DecisionPolicy, is_recurrent
+
+    env = ns_pz.single_agent(CARTPOLE, DECISION, max_episode_steps=60)
+    model = _Alternating()
+    assert is_recurrent(model) and not is_recurrent(lambda obs: 1)
+    alternating = episode_returns(env, lambda obs: 0, range(3))  # the stateless reading
+    assert episode_returns(env, model, range(3)) > alternating
+    pushes = []
+    decide = DecisionPolicy(model)  # the agent's seat as an opponent plays it
+    view = env.unwrapped
+    for seed in range(2):
+        env.reset(seed=seed)
+        decide.reset(np.random.default_rng(seed))
+        pushes.append([int(decide(view.process)) for _ in range(4)])
+    assert pushes == [[0, 1, 0, 1]] * 2  # carried within an episode, fresh at the next
+    with pytest.raises(TypeError, match="recurrent model needs its state carried"):
+        PolicyNature(model)
+    with pytest.raises(ValueError, match="pass recurrent=True"):
+        PolicyMonitor(model)
+    assert PolicyMonitor(model, recurrent=True).recurrent
 
 
 def test_sampling_opponents_follow_the_seed_and_leave_torchs_generator_alone():

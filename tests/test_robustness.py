@@ -162,3 +162,106 @@ def test_statistics_follow_their_definitions():
         aggregate_runs([])
     with pytest.raises(ValueError, match="confidence=1"):
         aggregate_runs([1.0], confidence=1)
+
+
+def test_a_grid_member_is_the_episodes_theta0_under_domain_randomisation():
+    """A nature that draws θ_0 does not redraw a grid member's: the rows are as without it.
+
+    The member was passed as the env's params and domain randomisation drew over it, so every
+    grid row read the drawn pole (a long pole scored as the nominal one).
+    """
+    grid = {"length": [0.25, 1.5]}
+    plain = evaluate_robustness(balance, CARTPOLE, grid=grid, episodes=3, **SHORT)
+    drawn = DomainRandomisation({"length": Uniform(0.4, 0.6)})
+    randomised = evaluate_robustness(
+        balance, CARTPOLE, grid=grid, episodes=3, nature=drawn, **SHORT
+    )
+    rows = [c.returns for c in plain.conditions if c.group == "grid"]
+    assert rows == [c.returns for c in randomised.conditions if c.group == "grid"]
+    assert rows[1] != rows[0]  # the long pole falls: the member is played, not a draw
+
+
+def test_numpy_grids_serialise_and_numpy_levels_are_numbers(tmp_path):
+    """Grid values from np.arange / float32 np.linspace reach JSON as Python numbers.
+
+    NumPy floats pass as alpha and confidence (np.float32(0.1) was refused as "not in (0, 1)").
+    """
+    report = evaluate_robustness(
+        balance,
+        CARTPOLE,
+        grid={"masscart": np.arange(1, 3), "length": np.linspace(0.4, 0.6, 2, dtype=np.float32)},
+        episodes=2,
+        alpha=np.float32(0.25),
+        confidence=np.float64(0.9),
+        **SHORT,
+    )
+    data = json.loads(report.to_json())
+    assert data["conditions"][1]["params"] == {"masscart": 1, "length": pytest.approx(0.4)}
+    assert report.alpha == 0.25 and report.confidence == 0.9
+
+
+def test_the_figure_leaves_the_callers_matplotlib_backend_alone(tmp_path):
+    """plot() draws on a figure of its own: it switched the process's backend to Agg."""
+    matplotlib = pytest.importorskip("matplotlib")
+    before = matplotlib.get_backend()
+    try:
+        matplotlib.use("svg")
+        report = evaluate_robustness(balance, CARTPOLE, episodes=1, **SHORT)
+        report.plot(str(tmp_path / "robust.png"))
+        assert matplotlib.get_backend() == "svg"
+        assert (tmp_path / "robust.png").stat().st_size > 1000
+    finally:
+        matplotlib.use(before)
+
+
+def test_grid_members_and_adversary_settings_are_refused_before_any_episode():
+    """Bad grid names and values, confidence, seeds and AdversarySearch fields fail up front."""
+    played = []
+
+    def counting(obs):
+        played.append(1)
+        return balance(obs)
+
+    for kwargs, error, text in (
+        ({"grid": {"lenght": [0.5]}}, ValueError, "did you mean 'length'"),
+        ({"grid": {"length": [-1.0]}}, ValueError, "length=-1.0 is outside"),
+        ({"confidence": 1.5}, ValueError, "confidence=1.5"),
+        ({"seed": 1.5}, ValueError, "seed=1.5"),
+        ({"seed": -1}, ValueError, "seed=-1"),
+    ):
+        with pytest.raises(error, match=text):
+            evaluate_robustness(counting, CARTPOLE, episodes=2, **kwargs, **SHORT)
+    assert not played
+    for kwargs, error, text in (
+        ({"nature_reward": "bogus"}, ValueError, "nature_reward='bogus'"),
+        ({"nature_action": "x"}, ValueError, "nature_action='x'"),
+        ({"default_step": -1}, ValueError, "default_step=-1"),
+        ({"nature_observes_state": "yes"}, TypeError, "nature_observes_state='yes'"),
+        ({"args": "PPO"}, TypeError, "args='PPO' must be an ns_pz.learning.TrainArgs"),
+    ):
+        with pytest.raises(error, match=text):
+            AdversarySearch(**kwargs)
+
+
+def test_statistics_and_theta_sets_refuse_what_they_cannot_compute():
+    """No silent number: CVaR's level, an empty IQM, zero resamples, seeds named."""
+    values = np.array([1.0, 2.0, 3.0])
+    assert cvar(values, 1) == 2.0  # the mean
+    for alpha in (2, -1, 0, True):
+        with pytest.raises(ValueError, match="alpha=.* must be a number in \\(0, 1\\]"):
+            cvar(values, alpha)
+    with pytest.raises(ValueError, match="needs at least one value"):
+        interquartile_mean([])
+    with pytest.raises(ValueError, match="reps=0"):
+        aggregate_runs([1.0, 2.0], reps=0)
+    with pytest.raises(ValueError, match="seed=-1"):
+        aggregate_runs([1.0, 2.0], seed=-1)
+    with pytest.raises(ValueError, match="confidence=np.float32"):
+        aggregate_runs([1.0, 2.0], confidence=np.float32(1.5))
+    assert aggregate_runs([1.0, 2.0, 3.0], confidence=np.float32(0.9)).value == 2.0
+    lengths = {"length": Uniform(0.3, 3.0)}
+    for seed in (None, -1, 1.5):
+        with pytest.raises(ValueError, match=f"seed={seed!r}"):
+            ThetaSet.sample(lengths, 4, seed=seed)
+        with pytest.raises(ValueError, match=f"seed={seed!r}"):
+            ThetaSet.sample(lengths, 4, seed=0).split(0.5, seed=seed)

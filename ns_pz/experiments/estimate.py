@@ -201,9 +201,7 @@ def plan(
         need.request.key: need for spec in specs for _, need in needed_networks(spec, expand(spec))
     }
     missing = sum(not exists(need.request) for need in keys.values())
-    firsts = {
-        _first_play(spec, trials[0]) for spec in specs for trials in _groups(spec).values()
-    }
+    firsts = {_first_play(spec, trials[0]) for spec in specs for trials in _groups(spec).values()}
     warm_ups = len(firsts - _PLAYED)
     return Plan(
         groups, missing, len(keys) - missing, samples, cell_seconds, probe_seconds, warm_ups

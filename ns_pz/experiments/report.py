@@ -416,11 +416,8 @@ def plot(
         raise ValueError(f"figsize={figsize!r} must be (width, height) in inches, both > 0")
     if isinstance(dpi, bool) or not isinstance(dpi, int) or dpi < 10:
         raise ValueError(f"dpi={dpi!r} must be an integer >= 10")
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    try:  # figures of their own, not pyplot's: the caller's backend and figures are left alone
+        from matplotlib.figure import Figure
     except ImportError:
         raise RuntimeError('plots need matplotlib: pip install "ns_pz[plot]"') from None
     agents, columns, summaries = summarise(rows, spec)
@@ -432,24 +429,22 @@ def plot(
     colours = dict(zip(agents, agent_colours(len(agents)), strict=True))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    fig = _means_figure(plt, agents, columns, summaries, optima, colours, figsize)
+    fig = _means_figure(Figure, agents, columns, summaries, optima, colours, figsize)
     fig.axes[0].set_title(title)
     _footnote(fig, legend(columns, summaries))
     means_path = out / f"means.{fmt}"
     fig.savefig(means_path, dpi=dpi)
-    plt.close(fig)
 
-    fig = _returns_figure(plt, rows, agents, columns, optima, colours, figsize)
+    fig = _returns_figure(Figure, rows, agents, columns, optima, colours, figsize)
     fig.suptitle(f"{title}: return distributions")
     _footnote(fig, box_legend(columns, summaries))
     returns_path = out / f"returns.{fmt}"
     fig.savefig(returns_path, dpi=dpi)
-    plt.close(fig)
     return [means_path, returns_path]
 
 
 def _means_figure(
-    plt: Any,
+    figure: Any,
     agents: Sequence[str],
     columns: Sequence[str],
     summaries: Mapping[tuple[str, str], Summary],
@@ -460,7 +455,8 @@ def _means_figure(
     """Grouped bars, one group per cell; the legend outside the axes, on the right."""
     width = 0.8 / max(len(agents), 1)
     size = figsize or (max(6.0, 1.4 * len(columns) + 3.5), 4.5)
-    fig, ax = plt.subplots(figsize=size)
+    fig = figure(figsize=size)
+    ax = fig.subplots()
     for i, agent in enumerate(agents):
         xs, means, errors = [], [], []
         for j, column in enumerate(columns):
@@ -482,7 +478,7 @@ def _means_figure(
 
 
 def _returns_figure(
-    plt: Any,
+    figure: Any,
     rows: Sequence[Mapping[str, Any]],
     agents: Sequence[str],
     columns: Sequence[str],
@@ -494,7 +490,8 @@ def _returns_figure(
     per_row = min(3, max(len(columns), 1))
     grid_rows = math.ceil(len(columns) / per_row) if columns else 1
     size = figsize or (4.2 * per_row + 1.5, (0.28 * len(agents) + 1.2) * grid_rows + 0.8)
-    fig, axes = plt.subplots(grid_rows, per_row, figsize=size, squeeze=False, sharey=True)
+    fig = figure(figsize=size)
+    axes = fig.subplots(grid_rows, per_row, squeeze=False, sharey=True)
     for index, column in enumerate(columns):
         ax = axes[index // per_row][index % per_row]
         data = [

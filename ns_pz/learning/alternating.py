@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 
-from ns_pz.checks import count, flag
+from ns_pz.checks import count, flag, seed_value
 from ns_pz.learning.rollouts import episode_returns, mean_and_se
 from ns_pz.learning.seats import single_agent
 from ns_pz.learning.training import (
@@ -207,6 +207,15 @@ def rarl(
     rounds = count("rounds", rounds)
     eval_episodes = count("eval_episodes", eval_episodes)
     n_envs = count("n_envs", n_envs)
+    seed = seed_value("seed", seed)
+    for name, given in (("agent_args", agent_args), ("nature_args", nature_args)):
+        if given is not None and not isinstance(given, TrainArgs):
+            raise TypeError(f"{name}={given!r} must be a TrainArgs or None (PPO, 20,000 steps)")
+    if "nature" in env_kwargs:
+        raise TypeError(
+            f"nature={env_kwargs['nature']!r}: rarl trains nature itself; score the agent "
+            "against other natures with eval_suite"
+        )
     if vec_env not in VEC_ENVS:
         raise ValueError(f"vec_env={vec_env!r}; allowed: {VEC_ENVS}")
     subproc = vec_env == "subproc" and n_envs > 1

@@ -28,13 +28,14 @@ from typing import Any
 
 import numpy as np
 
-from ns_pz.checks import count
+from ns_pz.checks import count, flag, fraction, seed_value
 from ns_pz.learning.rollouts import episode_returns
 from ns_pz.learning.statistics import Estimate, bootstrap, cvar, decimals_for, lower_quantile
-from ns_pz.nature.interface import DEFAULT_STEP
+from ns_pz.nature.interface import DEFAULT_STEP, NATURE_ACTIONS, check_default_step
 from ns_pz.nature.policies import Nature
 from ns_pz.nature.randomised import ThetaSet
 from ns_pz.params import Params
+from ns_pz.regret import NATURE_REWARDS
 from ns_pz.seat_policies import check_policy
 
 NOMINAL = "nominal"
@@ -82,6 +83,20 @@ class AdversarySearch:
             self, "selection_episodes", count("selection_episodes", self.selection_episodes)
         )
         object.__setattr__(self, "n_envs", count("n_envs", self.n_envs))
+        if self.nature_reward not in NATURE_REWARDS:
+            raise ValueError(f"nature_reward={self.nature_reward!r}; allowed: {NATURE_REWARDS}")
+        if self.nature_action not in NATURE_ACTIONS:
+            raise ValueError(f"nature_action={self.nature_action!r}; allowed: {NATURE_ACTIONS}")
+        flag("nature_observes_state", self.nature_observes_state)
+        object.__setattr__(self, "default_step", check_default_step(self.default_step))
+        train_args = isinstance(getattr(self.args, "algo", None), str) and hasattr(
+            self.args, "total_timesteps"
+        )  # a TrainArgs, told apart without importing Stable-Baselines3
+        if self.args is not None and not train_args:
+            raise TypeError(
+                f"args={self.args!r} must be an ns_pz.learning.TrainArgs (or None: PPO for "
+                "20,000 steps)"
+            )
 
 
 @dataclass(frozen=True)
@@ -234,7 +249,13 @@ def evaluate_robustness(
         env_id: A registered id.
         grid: θ_0 values to evaluate at: a :class:`~ns_pz.nature.ThetaSet` or a mapping of
             parameter names to values (their product). Each member overrides the
-            parameters it names of ``env_kwargs["params"]``.
+            parameters it names of ``env_kwargs["params"]`` and is every episode's θ_0 (set
+            at reset, as ``reset(options={"params": ...})`` does): a nature of
+            ``env_kwargs`` that draws θ_0 (:class:`~ns_pz.nature.DomainRandomisation`) does
+            not redraw it, and one that changes θ within an episode does so from it. The
+            decision agent knows θ_0 as it knows the ``params`` of an environment: an ns_pz
+            ``Agent`` plans with it (at every notification level), where under domain
+            randomisation its model has the nominal θ_0 and the drawn one stays hidden.
         natures: A suite of natures by label, each replacing ``env_kwargs["nature"]``.
         adversaries: Train natures against ``policy`` and score the strongest.
         episodes: Evaluation episodes per condition (seeds ``seed ...``).
@@ -256,28 +277,36 @@ def evaluate_robustness(
     check_policy(policy, "agent", "policy")
     episodes = count("episodes", episodes)
     bootstrap_reps = count("bootstrap_reps", bootstrap_reps)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed={seed!r} must be an int >= 0")
-    if not isinstance(alpha, (int, float)) or not 0 < alpha < 1:
-        raise ValueError(f"alpha={alpha!r} must lie in (0, 1)")
+    seed = seed_value("seed", seed)
+    alpha = fraction("alpha", alpha)
+    confidence = fraction("confidence", confidence)
     members = _grid_members(grid)
     suite = _check_natures(natures, env_kwargs)
     if adversaries is not None and not isinstance(adversaries, AdversarySearch):
         raise TypeError(f"adversaries={adversaries!r} must be an AdversarySearch or None")
-    seeds = tuple(range(int(seed), int(seed) + episodes))
+    seeds = tuple(range(seed, seed + episodes))
+    nominal = single_agent(env_id, "agent", **env_kwargs)  # every env argument checked here
+    view: Any = nominal.unwrapped  # the agent's view (an NSGymEnv)
+    try:  # every grid member checked before any episode: its θ_0 (UnknownParam, out of range)
+        theta0s = [view.process.base_theta0.replace(**m) for m in members]
+    finally:
+        nominal.close()
 
-    def play(**overrides: Any) -> tuple[float, ...]:
+    def play(theta0: Params | None = None, **overrides: Any) -> tuple[float, ...]:
+        options = None
+        if theta0 is not None:  # the episodes' θ_0, not redrawn (see grid above)
+            overrides["params"] = theta0
+            options = {"params": theta0}
         env = single_agent(env_id, "agent", **{**env_kwargs, **overrides})
         try:
-            return tuple(episode_returns(env, policy, seeds))
+            return tuple(episode_returns(env, policy, seeds, options))
         finally:
             env.close()
 
     conditions = [Condition(NOMINAL, NOMINAL, play())]
-    for member in members:
+    for member, theta0 in zip(members, theta0s, strict=True):
         label = ", ".join(f"{k}={_short(v)}" for k, v in member.items())
-        params = _with_member(env_kwargs.get("params"), member)
-        conditions.append(Condition(label, GRID, play(params=params), member))
+        conditions.append(Condition(label, GRID, play(theta0), _plain(member)))
     for label, nature in suite.items():
         conditions.append(Condition(label, NATURES, play(nature=nature)))
     report_extra: dict[str, Any] = {}
@@ -394,14 +423,9 @@ def _check_natures(natures: Any, env_kwargs: Mapping[str, Any]) -> dict[str, Nat
     return dict(natures)
 
 
-def _with_member(params: Any, member: Mapping[str, Any]) -> Any:
-    if params is None:
-        return dict(member)
-    if isinstance(params, Params):
-        return params.replace(**member)
-    if isinstance(params, Mapping):
-        return {**params, **member}
-    raise TypeError(f"params={params!r} must be a parameter set, a mapping or None")
+def _plain(member: Mapping[str, Any]) -> dict[str, Any]:
+    """A grid member's values as Python numbers and lists (JSON text takes no NumPy scalar)."""
+    return {name: np.asarray(value).tolist() for name, value in member.items()}
 
 
 def _short(value: Any) -> str:

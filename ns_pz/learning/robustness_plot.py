@@ -18,17 +18,15 @@ def plot_report(report: RobustnessReport, path: str | None = None) -> Any:
     Raises:
         ImportError: matplotlib is missing; the message names the ``plot`` extra.
     """
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+    try:  # a figure of its own, not pyplot's: the caller's backend and figures are left alone
+        from matplotlib.figure import Figure
     except ImportError as error:  # pragma: no cover - depends on the install
         raise ImportError(
             "RobustnessReport.plot needs matplotlib: pip install 'ns_pz[plot]'"
         ) from error
     heat = _heatmap_axes(report)
-    figure, axes = plt.subplots(1, 2 if heat else 1, figsize=(11 if heat else 6, 4), squeeze=False)
+    figure = Figure(figsize=(11 if heat else 6, 4))
+    axes = figure.subplots(1, 2 if heat else 1, squeeze=False)
     bars = axes[0][0]
     labels = [row.label for row in report.rows]
     means = np.array([row.mean.value for row in report.rows])

@@ -16,10 +16,13 @@ resamples runs with replacement), so no extra package is needed.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+
+from ns_pz.checks import count, fraction, seed_value
 
 
 @dataclass(frozen=True)
@@ -49,7 +52,16 @@ def lower_quantile(returns: np.ndarray, alpha: float) -> np.ndarray | float:
 
 
 def cvar(returns: np.ndarray, alpha: float) -> np.ndarray | float:
-    """The lower-tail CVaR along the last axis: the mean of the worst ``ceil(alpha * n)``."""
+    """The lower-tail CVaR along the last axis: the mean of the worst ``ceil(alpha * n)``.
+
+    Raises:
+        ValueError: ``alpha`` is not a number in (0, 1] (1: the mean), or there are no returns.
+    """
+    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0 < alpha <= 1:
+        raise ValueError(f"alpha={alpha!r} must be a number in (0, 1]")
+    returns = np.asarray(returns, dtype=float)
+    if returns.ndim == 0 or returns.shape[-1] == 0:
+        raise ValueError(f"returns has shape {returns.shape}; it needs at least one return")
     worst = max(1, math.ceil(alpha * returns.shape[-1]))
     return np.sort(returns, axis=-1)[..., :worst].mean(axis=-1)
 
@@ -58,8 +70,13 @@ def interquartile_mean(values: Sequence[float] | np.ndarray) -> np.ndarray | flo
     """The mean of the middle half along the last axis (the 25 % trimmed mean).
 
     ``floor(n / 4)`` values are cut from each end.
+
+    Raises:
+        ValueError: There are no values.
     """
     ordered = np.sort(np.asarray(values, dtype=float), axis=-1)
+    if ordered.ndim == 0 or ordered.shape[-1] == 0:
+        raise ValueError(f"values has shape {ordered.shape}; the IQM needs at least one value")
     n = ordered.shape[-1]
     cut = n // 4
     return ordered[..., cut : n - cut].mean(axis=-1)
@@ -84,7 +101,8 @@ def bootstrap(
         reps: Bootstrap resamples.
         rng: The generator of the resampling.
     """
-    _check_confidence(confidence)
+    confidence = fraction("confidence", confidence)
+    reps = count("reps", reps)
     samples = np.asarray(samples, dtype=float)
     value = float(np.asarray(statistic(samples[None]))[0])
     n = len(samples)
@@ -103,14 +121,15 @@ def aggregate_runs(
     reps: int = 5000,
     seed: int = 0,
 ) -> Estimate:
-    """The interquartile mean over training runs with a percentile bootstrap over runs."""
+    """The interquartile mean over training runs with a percentile bootstrap over runs.
+
+    Raises:
+        ValueError: Scores that are not a non-empty list of finite numbers, ``confidence``
+            outside (0, 1), ``reps`` below 1 or ``seed`` outside ``[0, 2**32)``.
+    """
     values = np.asarray(scores, dtype=float)
     if values.ndim != 1 or len(values) == 0 or not np.all(np.isfinite(values)):
         raise ValueError(f"scores={scores!r} must be a non-empty list of finite numbers")
-    rng = np.random.default_rng(seed)
+    reps = count("reps", reps)
+    rng = np.random.default_rng(seed_value("seed", seed))
     return bootstrap(values, interquartile_mean, confidence=confidence, reps=reps, rng=rng)
-
-
-def _check_confidence(confidence: float) -> None:
-    if not isinstance(confidence, (int, float)) or not 0 < confidence < 1:
-        raise ValueError(f"confidence={confidence!r} must lie in (0, 1)")

@@ -18,6 +18,7 @@ from ns_pz.seat_policies import (
     call_recurrent_policy,
     check_policy,
     check_policy_spaces,
+    is_recurrent,
 )
 
 
@@ -73,6 +74,11 @@ class PolicyMonitor(Monitor):
             raise TypeError(
                 f"recurrent=True needs a model with predict(obs, state, episode_start); "
                 f"{policy!r} has no predict"
+            )
+        if not recurrent and is_recurrent(policy):
+            raise ValueError(
+                f"{policy!r} is a recurrent model: pass recurrent=True, so that its state is "
+                "carried from one turn to the next (without it, every turn starts afresh)"
             )
         self.policy = policy
         self.deterministic = flag("deterministic", deterministic)

@@ -21,6 +21,7 @@ from ns_pz.seat_policies import (
     call_policy,
     check_policy,
     check_policy_spaces,
+    is_recurrent,
 )
 
 if TYPE_CHECKING:
@@ -46,7 +47,8 @@ class PolicyNature(Nature):
     them apart).
 
     Raises:
-        TypeError / ValueError: An argument outside its allowed values.
+        TypeError / ValueError: An argument outside its allowed values, or a recurrent model
+            (sb3-contrib's ``RecurrentPPO``), whose state nature's seat does not carry.
     """
 
     def __init__(
@@ -59,6 +61,12 @@ class PolicyNature(Nature):
         deterministic: bool = True,
     ) -> None:
         check_policy(policy, "nature", "PolicyNature(policy)")
+        if is_recurrent(policy):
+            raise TypeError(
+                f"PolicyNature(policy={policy!r}): a recurrent model needs its state carried "
+                "from one move to the next, which PolicyNature does not do; train nature with "
+                "a feed-forward policy, or give nature's observation the history it needs"
+            )
         if action not in NATURE_ACTIONS:
             raise ValueError(f"action={action!r}; allowed: {NATURE_ACTIONS}")
         self.policy = policy

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ns_pz.checks import count
+from ns_pz.checks import count, seed_value
 from ns_pz.nature.policies import Nature, Proposal
 from ns_pz.params import SIMPLEX, Params, ParamSpec, Value
 
@@ -229,17 +229,23 @@ class ThetaSet(Sequence[Mapping[str, Value]]):
     def sample(
         cls, distributions: Mapping[str, ParamDistribution], size: int, *, seed: int
     ) -> ThetaSet:
-        """``size`` draws from per-parameter distributions, reproducible from ``seed``."""
+        """``size`` draws from per-parameter distributions, reproducible from ``seed``.
+
+        Raises:
+            ValueError: ``size`` below 1, or ``seed`` no int in ``[0, 2**32)`` (``None``
+                too: it would draw another set at every call).
+        """
         size = count("size", size)
         _check_distributions(distributions)
-        rng = np.random.default_rng(seed)
+        rng = np.random.default_rng(seed_value("seed", seed))
         return cls([{n: d.sample(rng) for n, d in distributions.items()} for _ in range(size)])
 
     def split(self, test_fraction: float, *, seed: int) -> tuple[ThetaSet, ThetaSet]:
         """A seeded random (train, test) partition with ``round(test_fraction * len)`` tests.
 
         Raises:
-            ValueError: ``test_fraction`` outside (0, 1), or a part would be empty.
+            ValueError: ``test_fraction`` outside (0, 1), a part would be empty, or ``seed``
+                is no int in ``[0, 2**32)``.
         """
         fraction = _finite("test_fraction", test_fraction)
         if not 0 < fraction < 1:
@@ -249,7 +255,7 @@ class ThetaSet(Sequence[Mapping[str, Value]]):
             raise ValueError(
                 f"test_fraction={test_fraction!r} of {len(self)} members leaves a part empty"
             )
-        order = np.random.default_rng(seed).permutation(len(self))
+        order = np.random.default_rng(seed_value("seed", seed)).permutation(len(self))
         test = sorted(int(i) for i in order[:tests])
         train = sorted(int(i) for i in order[tests:])
         return ThetaSet([self.members[i] for i in train]), ThetaSet([self.members[i] for i in test])
