@@ -122,6 +122,11 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         backend.start()  # they start while the specs load (a bad one stops them at once)
         specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
         root = Path(args.out)
+        if (root / "spec.json").is_file():  # a run's own folder: its runs would nest in it
+            raise SpecError(
+                f"--out {root} is the folder of a run (it holds spec.json); runs go in "
+                f"NAME-SIZE folders under --out: give the folder above it (--out {root.parent})"
+            )
         targets = [root / f"{experiment.name}-{experiment.size}" for experiment in specs]
         for target in targets:  # every directory is checked before any trial runs
             if targets.count(target) > 1:

@@ -149,6 +149,43 @@ def test_bad_specs_are_refused_naming_file_and_field(
     assert str(path) in str(caught.value)
 
 
+def test_every_sizes_values_are_checked_and_blamed_on_their_table(tmp_path: Path) -> None:
+    """A bad value at the size not run, a bad common value, a misspelt nested name: all refused.
+
+    Only the size being loaded was built, so ``full = { iterations = -300 }`` passed a quick
+    load; a bad value in ``params`` was reported under the size table; a nested table's
+    typo came back as a bare TypeError of the settings class.
+    """
+    mcts = '[[agents]]\nname = "mcts"\nparams = { gamma = 0.9 }\nquick = { iterations = 20 }\n'
+    cases = (
+        (mcts + "full = { iterations = -300 }\n", r"agents\[0\]\.full: iterations=-300"),
+        (mcts.replace("gamma = 0.9", "gamma = -0.9"), r"agents\[0\]\.params: gamma=-0.9"),
+        (
+            '[[agents]]\nname = "pamcts"\nfull = { ddqn = { total_stepz = 10 } }\n',
+            r"agents\[0\]\.full: ddqn has no setting 'total_stepz' \(did you mean "
+            r"'total_steps'\?\); allowed: \[",
+        ),
+    )
+    for agent, message in cases:
+        path = write_spec(tmp_path, tiny_spec(agent, full_episodes=2))
+        for size in ("quick", "full"):
+            with pytest.raises(SpecError, match=message):
+                load_spec(path, size)
+    text = tiny_spec(mcts + "full = { iterations = 300 }\n", full_episodes=2)
+    assert load_spec(write_spec(tmp_path, text), "quick").agents[0].hyper["iterations"] == 20
+
+
+def test_out_naming_a_runs_own_folder_is_refused(tmp_path: Path) -> None:
+    """``--out`` is the folder runs go in; a run's own folder there nested a new run in it."""
+    spec = str(write_spec(tmp_path))
+    out = tmp_path / "o"
+    assert main(["bench", "run", spec, "--out", str(out), "--workers", "1"], print) == 0
+    lines: list[str] = []
+    argv = ["bench", "run", spec, "--out", str(out / "tiny-quick"), "--resume"]
+    assert main(argv, lines.append) == 2
+    assert not (out / "tiny-quick" / "tiny-quick").exists()
+
+
 def test_a_tabular_planner_on_cartpole_is_refused(tmp_path: Path) -> None:
     """A planning agent that needs an outcome table cannot be asked to plan CartPole."""
     text = (

@@ -10,6 +10,7 @@ size sets the paper-sized budgets.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -53,6 +54,29 @@ def paper_entry(table: Mapping[str, Any], family: object) -> Any:
         f"no paper setting for {family!r}; set every hyper-parameter left None "
         f"(families with defaults: {sorted(table)})"
     )
+
+
+def nested_args(cls: type[Any], values: Any, where: str) -> Any:
+    """``cls(**values)`` for a table of settings nested in an agent's (PA-MCTS's ``ddqn``).
+
+    ``None`` gives the defaults.
+
+    Raises:
+        TypeError: ``values`` is not a mapping.
+        ValueError: A name ``cls`` does not have (the message lists the allowed ones), or a
+            value ``cls`` refuses.
+    """
+    if values is None:
+        return cls()
+    if not isinstance(values, Mapping):
+        raise TypeError(f"{where}={values!r} must be a table of {cls.__name__} settings")
+    allowed = [f.name for f in dataclasses.fields(cls)]
+    for key in values:
+        if key not in allowed:
+            close = difflib.get_close_matches(str(key), allowed, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ValueError(f"{where} has no setting {key!r}{hint}; allowed: {allowed}")
+    return cls(**values)
 
 
 def _integer(name: str, value: Any, low: int) -> None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ns_pz.agents.learning.alphazero_agent import build_alphazero
-from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs
+from ns_pz.agents.learning.config import AlphaZeroArgs, DDQNArgs, nested_args
 from ns_pz.agents.learning.pamcts import build_pamcts, check_pamcts
 from ns_pz.agents.learning.q_agent import build_ddqn, build_ddqn_wn, check_fine_tuning
 from ns_pz.agents.learning.trained import Needed, alphazero_needed, ddqn_needed
@@ -41,7 +41,7 @@ def _pamcts_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
     """The stale DDQN; acting hyper-parameters checked as the agent would (builder defaults)."""
     acting = {**_defaults(build_pamcts), **hyper}
     check_pamcts(*(acting[name] for name in _PAMCTS_ACTING))
-    return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
+    return [ddqn_needed(env, nested_args(DDQNArgs, hyper.get("ddqn"), "ddqn"))]
 
 
 _PAMCTS_ACTING = ("alpha", "normalise", "iterations", "depth", "c", "gamma", "backend")
@@ -51,7 +51,7 @@ def _ddqn_wn_artefacts(env: NSGymEnv, hyper: Mapping[str, Any]) -> list[Needed]:
     """The DDQN it fine-tunes; the fine-tuning budget checked as the agent would."""
     acting = {**_defaults(build_ddqn_wn), **hyper}
     check_fine_tuning(*(acting[name] for name in _DDQN_WN_ACTING))
-    return [ddqn_needed(env, DDQNArgs(**dict(hyper.get("ddqn") or {})))]
+    return [ddqn_needed(env, nested_args(DDQNArgs, hyper.get("ddqn"), "ddqn"))]
 
 
 _DDQN_WN_ACTING = (

@@ -17,7 +17,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
-from ns_pz.agents.learning.config import DDQNArgs
+from ns_pz.agents.learning.config import DDQNArgs, nested_args
 from ns_pz.agents.learning.q_agent import QNetwork, ddqn_q_network
 from ns_pz.agents.search.compiled import BACKENDS
 from ns_pz.agents.search.mcts import check_uct_params, uct_tree, uniform_index
@@ -205,5 +205,5 @@ def build_pamcts(
     ``ddqn`` are the :class:`DDQNArgs` of its stale Q-network: the same as the ``ddqn`` agent's,
     so both share one trained artefact.
     """
-    q_network = ddqn_q_network(env, DDQNArgs(**dict(ddqn or {})))
+    q_network = ddqn_q_network(env, nested_args(DDQNArgs, ddqn, "ddqn"))
     return PAMCTS(q_network, alpha, normalise, iterations, depth, c, gamma, backend)

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 from ns_pz.agents.base import Agent
-from ns_pz.agents.learning.config import DDQNArgs
+from ns_pz.agents.learning.config import DDQNArgs, nested_args
 from ns_pz.agents.learning.features import NumpyMLP, features
 from ns_pz.agents.learning.trained import ddqn_needed, obtain
 
@@ -136,7 +136,7 @@ def build_ddqn_wn(
         ddqn: :class:`DDQNArgs` of the network (as the ``ddqn`` agent's, to share it); its
             learning rate, γ, τ, batch size and weight decay also drive the fine-tuning.
     """
-    args = DDQNArgs(**dict(ddqn or {})).for_family(env.family)
+    args = nested_args(DDQNArgs, ddqn, "ddqn").for_family(env.family)
     weights = obtain(ddqn_needed(env, args))
     module = importlib.import_module("ns_pz.agents.learning.ddqn_wn")  # it imports this module
     return module.FineTunedDDQNAgent(

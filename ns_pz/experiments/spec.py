@@ -749,7 +749,6 @@ class _Checker:
         for table_name in ("params", *SIZES):  # every size, not only the one that runs now
             self.data(f"{where}.{table_name}", raw.get(table_name, {}))
         hyper = _merged(common, raw.get(size, {}))
-        field = f"{where}.{size}" if raw.get(size) else f"{where}.params"
         if entry.tabular_only and not is_tabular(probe_env.family):
             raise self.fail(
                 f"{where}.name",
@@ -778,7 +777,12 @@ class _Checker:
                     f"{where}.notifications",
                     f"agent {entry.name!r} runs at {sorted(entry.levels)} only, not {level!r}",
                 )
-        self.try_agent(where, field, entry, hyper, probe_env)
+        for other in SIZES:  # the other sizes' values too, built but not played
+            if other != size:
+                self.try_build(where, entry, common, raw.get(other, {}), other, probe_env)
+        agent = self.try_build(where, entry, common, raw.get(size, {}), size, probe_env)
+        if agent is not None:
+            self.try_acting(where, entry, agent, probe_env)
         label = raw.get("label", entry.name)
         if not isinstance(label, str) or not label:
             raise self.fail(f"{where}.label", f"{label!r} must be a non-empty string")
@@ -789,24 +793,34 @@ class _Checker:
             resolved = dict(hyper)  # a default that is not data (a callable): record the given
         return AgentSpec(entry.name, label, resolved, agent_levels)
 
-    def try_agent(
-        self, where: str, field: str, entry: Any, hyper: Mapping[str, Any], env: NSGymEnv
-    ) -> None:
-        """Build the agent and let it act once, so an agent that cannot run here fails now.
+    def try_build(
+        self,
+        where: str,
+        entry: Any,
+        common: Mapping[str, Any],
+        sized: Mapping[str, Any],
+        size: str,
+        env: NSGymEnv,
+    ) -> Any:
+        """The agent of ``size``'s hyper-parameters, built on ``env`` (None for a learner).
 
-        An agent that needs trained networks is only checked for its hyper-parameters: acting
-        would train them, which the runner does once before the trials.
+        An agent that needs trained networks is only checked for its hyper-parameters: building
+        it would train them, which the runner does once before the trials. A bad value is
+        blamed on the table that holds it: ``params`` when the common values alone fail.
         """
-        if entry.artefacts is not None:
-            try:
-                entry.artefacts(env, hyper)
-            except (TypeError, ValueError) as error:
-                raise self.fail(field, str(error)) from None
-            return
         try:
-            agent = entry.make(env, hyper)
+            return _built(entry, _merged(common, sized), env)
         except (TypeError, ValueError) as error:
+            field = f"{where}.{size}" if sized else f"{where}.params"
+            if sized:
+                try:
+                    _built(entry, dict(common), env)
+                except (TypeError, ValueError):
+                    field = f"{where}.params"
             raise self.fail(field, str(error)) from None
+
+    def try_acting(self, where: str, entry: Any, agent: Any, env: NSGymEnv) -> None:
+        """Let ``agent`` act once on ``env``, so an agent that cannot run here fails now."""
         try:
             observation, _ = env.reset(seed=0)
             agent.reset(np.random.default_rng(0))
@@ -817,6 +831,14 @@ class _Checker:
                 f"agent {entry.name!r} cannot act in {env.family!r}: "
                 f"{type(error).__name__}: {error}",
             ) from None
+
+
+def _built(entry: Any, hyper: Mapping[str, Any], env: NSGymEnv) -> Any:
+    """``entry``'s agent on ``env``, or None after checking a learner's networks' settings."""
+    if entry.artefacts is not None:
+        entry.artefacts(env, hyper)
+        return None
+    return entry.make(env, hyper)
 
 
 def _merged(common: Mapping[str, Any], sized: Mapping[str, Any]) -> dict[str, Any]:
