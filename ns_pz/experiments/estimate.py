@@ -23,8 +23,8 @@ Nothing is trained to the end and no trial need run to its end:
   not read off the one the cap fell in.
 * **One-off costs.** What a process pays the first time an agent plays (compiling or loading its
   compiled kernels, which DDQN-WN does at its first fine-tuning, steps into the episode) a
-  worker pays once, not per trial. So the first time an agent plays in a cell of an environment
-  at a notification level in this process, one trial is played untimed first; and the
+  worker pays once, not per trial. So the first time an agent plays in an environment at a
+  notification level in this process, one trial is played untimed first; and the
   temporary cache keeps the user's compiled kernels (:func:`stand_in_cache`). Without both, a
   kernel compiled at the third step of a cut episode was projected to the horizon: a quick
   FrozenLake table read 3.4 h of trials where they take about 50 s.
