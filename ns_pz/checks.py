@@ -60,18 +60,19 @@ def fraction(name: str, value: Any) -> float:
     return number
 
 
-SEED_LIMIT = 2**32
-"""Seeds lie in ``[0, 2**32)``: what Stable-Baselines3 and ``np.random.seed`` accept."""
+SB3_SEEDS = 2**32
+"""Stable-Baselines3 seeds lie below this (they reach ``np.random.seed``)."""
 
 
-def seed_value(name: str, value: Any) -> int:
-    """``value`` as an int if it is an integer (NumPy's too, not a bool) in ``[0, 2**32)``.
+def seed_value(name: str, value: Any, below: int | None = None) -> int:
+    """``value`` as an int if it is an integer (NumPy's too, not a bool) >= 0 (and < ``below``).
 
     Raises:
         ValueError: Anything else (``None`` too: a seed asked for must be given).
     """
+    allowed = "an int >= 0" if below is None else f"an int in [0, {below})"
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise ValueError(f"{name}={value!r} must be an int in [0, 2**32)")
-    if not 0 <= int(value) < SEED_LIMIT:
-        raise ValueError(f"{name}={value!r} must be an int in [0, 2**32)")
+        raise ValueError(f"{name}={value!r} must be {allowed}")
+    if int(value) < 0 or (below is not None and int(value) >= below):
+        raise ValueError(f"{name}={value!r} must be {allowed}")
     return int(value)

@@ -125,7 +125,8 @@ def bench_run(args: argparse.Namespace, out: Callable[[str], None]) -> int:
         if (root / "spec.json").is_file():  # a run's own folder: its runs would nest in it
             raise SpecError(
                 f"--out {root} is the folder of a run (it holds spec.json); runs go in "
-                f"NAME-SIZE folders under --out: give the folder above it (--out {root.parent})"
+                f"NAME-SIZE folders under --out: give the folder above it "
+                f"(--out {root.resolve().parent})"
             )
         targets = [root / f"{experiment.name}-{experiment.size}" for experiment in specs]
         for target in targets:  # every directory is checked before any trial runs
@@ -280,7 +281,7 @@ def bench_estimate(args: argparse.Namespace, out: Callable[[str], None]) -> int:
     specs = [load_spec(name, args.size) for name in _spec_names(args.specs)]
     out(plan(specs, args.samples, args.cell_seconds, args.probe_seconds).text())
     user_cache = cache_dir()
-    with stand_in_cache() as stand_ins:  # the user's cache is only read
+    with stand_in_cache() as stand_ins:  # the user's networks are only read
         networks, stand_in_agents = estimate_training(
             specs, stand_ins, user_cache, args.probe_seconds, sys.stderr
         )

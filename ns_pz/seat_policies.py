@@ -172,7 +172,7 @@ def is_recurrent(policy: Any) -> bool:
     policies carry, on the model's ``policy`` or on the policy given itself.
     """
     for candidate in (getattr(policy, "policy", None), policy):
-        if getattr(candidate, "lstm_hidden_state_shape", None) is not None:
+        if isinstance(getattr(candidate, "lstm_hidden_state_shape", None), tuple):
             return True
     return False
 

@@ -306,3 +306,41 @@ def test_the_estimate_keeps_the_compiled_kernels_it_finds(
         assert inside is not None and inside != before
         assert inside.resolve() == before.resolve()
     assert numba_cache.cache_dir() == before
+
+
+def test_a_kernel_folder_that_cannot_be_made_leaves_the_estimate_running(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A cache folder under a file (or a read-only home) is skipped, not fatal."""
+    from ns_pz.experiments import estimate as module
+
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    monkeypatch.setattr(module, "_compiled_kernels_folder", lambda: blocker / "numba")
+    with module.stand_in_cache() as stand_ins:
+        assert not (stand_ins.parent / "numba").exists()
+    costs = estimate(load_spec(write_spec(tmp_path), "full"), samples=1, cell_seconds=60.0)
+    assert len(costs) == 8
+
+
+def test_kernels_compiled_after_an_estimate_still_reach_the_users_folder(tmp_path: Path) -> None:
+    """A locator made inside the stand-in cache points at the user's folder, not the link.
+
+    The link's temporary folder is deleted when the estimate ends; a later compile in the same
+    process wrote to a new temporary folder of that name, which nothing removed.
+    """
+    pytest.importorskip("numba")
+    from ns_pz.agents.search import numba_cache
+
+    from ns_pz.experiments.estimate import stand_in_cache
+
+    def ours() -> None:  # a function of an ns_pz module's file, as the locator wants
+        return None
+
+    source = numba_cache.package_dirs()[0] / "checks.py"
+    user = numba_cache.cache_dir()
+    assert user is not None
+    with stand_in_cache():
+        locator = numba_cache.NSPZCacheLocator.from_function(ours, str(source))
+        assert locator is not None
+    assert locator.get_cache_path().startswith(str(user.resolve()))

@@ -171,6 +171,12 @@ def test_every_sizes_values_are_checked_and_blamed_on_their_table(tmp_path: Path
         for size in ("quick", "full"):
             with pytest.raises(SpecError, match=message):
                 load_spec(path, size)
+    overridden = mcts.replace("gamma = 0.9", "gamma = -0.9").replace(
+        "quick = { iterations = 20 }", "quick = { gamma = 0.9 }"
+    )
+    both = overridden + "full = { gamma = 0.9, iterations = -3 }\n"  # params' value unused
+    with pytest.raises(SpecError, match=r"agents\[0\]\.full: iterations=-3"):
+        load_spec(write_spec(tmp_path, tiny_spec(both, full_episodes=2)), "quick")
     text = tiny_spec(mcts + "full = { iterations = 300 }\n", full_episodes=2)
     assert load_spec(write_spec(tmp_path, text), "quick").agents[0].hyper["iterations"] == 20
 

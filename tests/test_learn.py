@@ -233,6 +233,8 @@ def test_bad_training_arguments_are_named():
     with pytest.raises(TypeError, match="rarl trains nature itself"):
         rarl(CARTPOLE, nature=StaticNature())
     fixed = lambda obs: 1  # noqa: E731
+    with pytest.raises(ValueError, match="seed=4294967296 must be an int in \\[0, 4294967296\\)"):
+        rarl(CARTPOLE, seed=2**32)  # Stable-Baselines3 seeds np.random with it
     with pytest.raises(ValueError, match="seed=1.5 must be an int in"):
         train_adversary(CARTPOLE, fixed, seed=1.5)
     with pytest.raises(ValueError, match="selection_seed=-3"):
@@ -296,12 +298,15 @@ def test_a_recurrent_model_carries_its_state_through_each_episode():
     (here: always left, which drops the pole sooner). Nature's seat cannot carry it, so
     PolicyNature refuses one; PolicyMonitor asks for recurrent=True.
     """
+    from unittest import mock
+
     from ns_pz.monitor import PolicyMonitor
     from ns_pz.seat_policies import DecisionPolicy, is_recurrent
 
     env = ns_pz.single_agent(CARTPOLE, DECISION, max_episode_steps=60)
     model = _Alternating()
     assert is_recurrent(model) and not is_recurrent(lambda obs: 1)
+    assert not is_recurrent(mock.MagicMock())  # any attribute, but no state shape
     alternating = episode_returns(env, lambda obs: 0, range(3))  # the stateless reading
     assert episode_returns(env, model, range(3)) > alternating
     pushes = []
@@ -314,7 +319,7 @@ def test_a_recurrent_model_carries_its_state_through_each_episode():
     assert pushes == [[0, 1, 0, 1]] * 2  # carried within an episode, fresh at the next
     with pytest.raises(TypeError, match="recurrent model needs its state carried"):
         PolicyNature(model)
-    with pytest.raises(ValueError, match="pass recurrent=True"):
+    with pytest.raises(ValueError, match="PolicyMonitor\\(model, recurrent=True\\)"):
         PolicyMonitor(model)
     assert PolicyMonitor(model, recurrent=True).recurrent
 

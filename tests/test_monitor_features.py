@@ -204,3 +204,28 @@ def test_recurrent_ppo_trains_in_the_seat_and_plays_back_with_its_state() -> Non
         assert handed is returned and not start  # each turn gets the state the last returned
     _view_alarms(monitor, 5)  # a new episode starts the state afresh
     assert recorder.calls[HORIZON][0] is None and recorder.calls[HORIZON][1]
+
+
+def test_an_episode_from_another_theta0_is_refused_where_the_features_depend_on_it() -> None:
+    """The evidence and the detector are built for the bound θ_0, so another is refused.
+
+    ``reset(options={"params": ...})`` started an episode the features still judged against
+    the bound θ_0: an unchanging slippery walk read as impossible transitions and false
+    alarms. The plain detector refused it already; features without evidence or detector
+    depend on no θ_0 and serve it.
+    """
+    other = {"params": {"slip": (0.5, 0.2, 0.2, 0.1)}}
+    flag = lambda obs: np.zeros(1, dtype=np.int64)  # noqa: E731
+    for features in (
+        MonitorFeatures(horizon=HORIZON),
+        MonitorFeatures(horizon=HORIZON, evidence=False, detector=TabularCusumMonitor()),
+    ):
+        env = _view(PolicyMonitor(flag, features=features))
+        with pytest.raises(ValueError, match="θ_0"):
+            env.reset(seed=0, options=other)
+    plain = _view(PolicyMonitor(flag, features=MonitorFeatures(horizon=HORIZON, evidence=False)))
+    plain.reset(seed=0, options=other)
+    assert plain.unwrapped.process.nominal_theta0.slip == (0.5, 0.2, 0.2, 0.1)
+    seat = _seat(MonitorFeatures(horizon=HORIZON))
+    with pytest.raises(ValueError, match="θ_0"):
+        seat.reset(seed=0, options=other)

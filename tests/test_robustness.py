@@ -232,6 +232,8 @@ def test_grid_members_and_adversary_settings_are_refused_before_any_episode():
         with pytest.raises(error, match=text):
             evaluate_robustness(counting, CARTPOLE, episodes=2, **kwargs, **SHORT)
     assert not played
+    far = evaluate_robustness(balance, CARTPOLE, episodes=1, seed=2**32, **SHORT)
+    assert far.seeds == (2**32,)  # episodes take any int >= 0 as their seed
     for kwargs, error, text in (
         ({"nature_reward": "bogus"}, ValueError, "nature_reward='bogus'"),
         ({"nature_action": "x"}, ValueError, "nature_action='x'"),
@@ -256,6 +258,7 @@ def test_statistics_and_theta_sets_refuse_what_they_cannot_compute():
         aggregate_runs([1.0, 2.0], reps=0)
     with pytest.raises(ValueError, match="seed=-1"):
         aggregate_runs([1.0, 2.0], seed=-1)
+    assert aggregate_runs([1.0, 2.0], seed=2**40).value == 1.5  # any int >= 0 seeds NumPy
     with pytest.raises(ValueError, match="confidence=np.float32"):
         aggregate_runs([1.0, 2.0], confidence=np.float32(1.5))
     assert aggregate_runs([1.0, 2.0, 3.0], confidence=np.float32(0.9)).value == 2.0

@@ -78,7 +78,9 @@ if _BASE is not None:
             self._lineno = py_func.__code__.co_firstlineno
             folder = cache_dir()
             assert folder is not None  # from_function only builds one when there is a folder
-            self._cache_path = str(folder / self.get_suitable_cache_subpath(py_file))
+            # resolved: where a link points now (bench estimate's temporary cache links the
+            # user's folder in), not a path through a link that is gone by the next compile
+            self._cache_path = str(folder.resolve() / self.get_suitable_cache_subpath(py_file))
 
         @classmethod
         def from_function(cls, py_func: Any, py_file: str) -> Any:

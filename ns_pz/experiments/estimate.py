@@ -11,7 +11,7 @@ Nothing is trained to the end and no trial need run to its end:
   projection stays a lower bound, most on CartPole, where its self-play episodes lengthen as the
   network learns. The partly trained network is kept, in a temporary cache, as a stand-in: the
   learning agents' trials are timed with it (a decision costs the same with any weights), and
-  the user's cache is never written. A cached network costs the run nothing.
+  the user's network cache is never written. A cached network costs the run nothing.
 * **Trials.** Every agent × cell plays up to ``samples`` seeds, all of them within
   ``cell_seconds``: an episode still going at the cap is cut, and its time per step projected
   to the spec's horizon (an upper bound: the episode may have ended sooner). Trials of an agent
@@ -215,15 +215,18 @@ def stand_in_cache() -> Iterator[Path]:
     :func:`estimate_training` links the user's cached networks into it and writes the
     partly trained stand-ins there, so the user's network cache is never written. The same
     variable moves numba's cache of ns_pz's compiled kernels, so the user's folder of those
-    is linked in as it is (where numba is installed): the trials load the kernels compiled
-    before, and what they compile stays for the run.
+    is linked in as it is (where numba is installed, and the folder can be made): the trials
+    load the kernels compiled before, and what they compile is written there for the run.
     """
     previous = os.environ.get(CACHE_ENV_VAR)
     compiled = _compiled_kernels_folder()
     with tempfile.TemporaryDirectory(prefix="ns-pz-estimate-") as folder:
         if compiled is not None:
-            compiled.mkdir(parents=True, exist_ok=True)
-            (Path(folder) / "numba").symlink_to(compiled.resolve(), target_is_directory=True)
+            try:
+                compiled.mkdir(parents=True, exist_ok=True)
+                (Path(folder) / "numba").symlink_to(compiled.resolve(), target_is_directory=True)
+            except OSError:  # a folder that cannot be made or linked: numba's next locator
+                pass  # serves, as it does for a run (the kernels are compiled in the estimate)
         os.environ[CACHE_ENV_VAR] = folder
         try:
             yield Path(folder) / "artefacts"

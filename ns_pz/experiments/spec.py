@@ -806,7 +806,7 @@ class _Checker:
 
         An agent that needs trained networks is only checked for its hyper-parameters: building
         it would train them, which the runner does once before the trials. A bad value is
-        blamed on the table that holds it: ``params`` when the common values alone fail.
+        blamed on the table that holds it: ``params`` when the common values alone fail alike.
         """
         try:
             return _built(entry, _merged(common, sized), env)
@@ -815,8 +815,9 @@ class _Checker:
             if sized:
                 try:
                     _built(entry, dict(common), env)
-                except (TypeError, ValueError):
-                    field = f"{where}.params"
+                except (TypeError, ValueError) as alone:
+                    if str(alone) == str(error):  # the common value, not overridden, fails
+                        field = f"{where}.params"
             raise self.fail(field, str(error)) from None
 
     def try_acting(self, where: str, entry: Any, agent: Any, env: NSGymEnv) -> None:

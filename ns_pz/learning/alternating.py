@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 
-from ns_pz.checks import count, flag, seed_value
+from ns_pz.checks import SB3_SEEDS, count, flag, seed_value
 from ns_pz.learning.rollouts import episode_returns, mean_and_se
 from ns_pz.learning.seats import single_agent
 from ns_pz.learning.training import (
@@ -207,7 +207,7 @@ def rarl(
     rounds = count("rounds", rounds)
     eval_episodes = count("eval_episodes", eval_episodes)
     n_envs = count("n_envs", n_envs)
-    seed = seed_value("seed", seed)
+    seed = seed_value("seed", seed, SB3_SEEDS)
     for name, given in (("agent_args", agent_args), ("nature_args", nature_args)):
         if given is not None and not isinstance(given, TrainArgs):
             raise TypeError(f"{name}={given!r} must be a TrainArgs or None (PPO, 20,000 steps)")

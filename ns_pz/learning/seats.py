@@ -332,7 +332,7 @@ class SeatEnv(ProcessEnv, gym.Env[Any, Any]):
             if callable(reset):
                 reset()
             if self._features is not None:
-                self._feature_memory = self._features.initial_memory()
+                self._feature_memory = self._features.episode_memory(process.nominal_theta0)
         process.play_until(self.learner, self._decide)
         if self.render_mode == "human":
             self.render()

@@ -125,7 +125,7 @@ def aggregate_runs(
 
     Raises:
         ValueError: Scores that are not a non-empty list of finite numbers, ``confidence``
-            outside (0, 1), ``reps`` below 1 or ``seed`` outside ``[0, 2**32)``.
+            outside (0, 1), ``reps`` below 1 or a negative ``seed``.
     """
     values = np.asarray(scores, dtype=float)
     if values.ndim != 1 or len(values) == 0 or not np.all(np.isfinite(values)):

@@ -33,7 +33,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.logger import HumanOutputFormat, KVWriter, Logger
 from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecEnv
 
-from ns_pz.checks import count, flag, seed_value
+from ns_pz.checks import SB3_SEEDS, count, flag, seed_value
 from ns_pz.learning.rollouts import episode_returns
 from ns_pz.learning.seats import single_agent
 from ns_pz.nature.interface import DEFAULT_STEP
@@ -240,7 +240,7 @@ def train_adversaries(
     """
     restarts = count("restarts", restarts)
     selection_episodes = count("selection_episodes", selection_episodes)
-    seed = seed_value("seed", seed)
+    seed = seed_value("seed", seed, SB3_SEEDS)
     if args is not None and not isinstance(args, TrainArgs):
         raise TypeError(f"args={args!r} must be a TrainArgs or None (PPO for 20,000 steps)")
     if selection_seed is None:

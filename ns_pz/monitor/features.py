@@ -228,6 +228,25 @@ class MonitorFeatures:
         detector = None if self.detector is None else self.detector.initial_memory()
         return FeatureMemory(detector, self.stack)
 
+    def episode_memory(self, theta0: Params) -> FeatureMemory:
+        """:meth:`initial_memory` for an episode from ``theta0`` (``reset`` options).
+
+        The evidence is read from the bound θ_0's outcome table, and the detector's reference
+        is its own: an episode from another θ_0 would be judged against the wrong model
+        (transitions "impossible" that are not), so it is refused, as the detector refuses it.
+
+        Raises:
+            ValueError: ``theta0`` is not the bound θ_0 and the evidence or the detector
+                depends on it.
+        """
+        if self.evidence and self._bound is not None and theta0 != self._bound[1]:
+            raise ValueError(
+                f"{self!r} reads its evidence from θ_0 = {self._bound[1]!r}; an episode from "
+                f"θ_0 = {theta0!r} needs a MonitorFeatures instance bound to that θ_0"
+            )
+        detector = None if self.detector is None else self.detector.episode_memory(theta0)
+        return FeatureMemory(detector, self.stack)
+
     def update(self, memory: FeatureMemory, observation: dict[str, Any]) -> None:
         """Count the transition in ``observation`` (nothing at reset, ``relative_time`` 0)."""
         t = int(observation["relative_time"][0])

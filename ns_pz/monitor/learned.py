@@ -77,8 +77,9 @@ class PolicyMonitor(Monitor):
             )
         if not recurrent and is_recurrent(policy):
             raise ValueError(
-                f"{policy!r} is a recurrent model: pass recurrent=True, so that its state is "
-                "carried from one turn to the next (without it, every turn starts afresh)"
+                f"{policy!r} is a recurrent model: give PolicyMonitor(model, recurrent=True), "
+                "so that its state is carried from one turn to the next (without it, every "
+                "turn starts afresh)"
             )
         self.policy = policy
         self.deterministic = flag("deterministic", deterministic)
@@ -157,6 +158,16 @@ class PolicyMonitor(Monitor):
     def initial_memory(self) -> PolicyMonitorMemory:
         """The features' running statistics and the policy's state, at an episode's start."""
         features = None if self.features is None else self.features.initial_memory()
+        return PolicyMonitorMemory(features)
+
+    def episode_memory(self, theta0: Params) -> PolicyMonitorMemory:
+        """:meth:`initial_memory` for an episode from ``theta0`` (``reset`` options).
+
+        Raises:
+            ValueError: The features' evidence or detector is bound to another θ_0
+                (:meth:`MonitorFeatures.episode_memory`).
+        """
+        features = None if self.features is None else self.features.episode_memory(theta0)
         return PolicyMonitorMemory(features)
 
     def __repr__(self) -> str:

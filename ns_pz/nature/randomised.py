@@ -232,8 +232,8 @@ class ThetaSet(Sequence[Mapping[str, Value]]):
         """``size`` draws from per-parameter distributions, reproducible from ``seed``.
 
         Raises:
-            ValueError: ``size`` below 1, or ``seed`` no int in ``[0, 2**32)`` (``None``
-                too: it would draw another set at every call).
+            ValueError: ``size`` below 1, or ``seed`` no int >= 0 (``None`` too: it would
+                draw another set at every call).
         """
         size = count("size", size)
         _check_distributions(distributions)
@@ -245,7 +245,7 @@ class ThetaSet(Sequence[Mapping[str, Value]]):
 
         Raises:
             ValueError: ``test_fraction`` outside (0, 1), a part would be empty, or ``seed``
-                is no int in ``[0, 2**32)``.
+                is no int >= 0.
         """
         fraction = _finite("test_fraction", test_fraction)
         if not 0 < fraction < 1:

@@ -8,8 +8,8 @@ those of every ``ns_pz.compat`` wrapper:
 * ``gravity`` is the z component of the gravity vector, a number, both in ``tunable_params``
   (NS-Gym also hands its update function the z component) and in :meth:`get_params` (NS-Gym
   shows the vector);
-* a change that would leave a parameter's range (a mass below a tenth of Gymnasium's) is
-  projected onto it, not dropped with a ``ConstraintViolationWarning``;
+* a change that would leave a parameter's range (a mass outside 0.2 to 5 times Gymnasium's)
+  is projected onto it, not dropped with a ``ConstraintViolationWarning``;
 * planning envs are the core's planning copies: a save of the MuJoCo state, not a new
   ``gymnasium.make`` per copy;
 * other model edits made by hand before wrapping (a geom size, a joint range) are not carried
