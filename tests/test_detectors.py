@@ -111,6 +111,36 @@ def test_score_episode_rejects_bad_input(kwargs, match):
         score_episode(**kwargs)
 
 
+def test_malformed_scoring_input_is_named_and_numpy_settings_are_numbers():
+    """Times that are no sequence, an episode that is no triple, a flag that is no bool.
+
+    ``score_episode(5, [], 10)`` said "'int' object is not iterable"; ``detection_metrics``
+    with a pair said "not enough values to unpack"; ``detection_reward("no", False)`` read the
+    string as true. NumPy numbers pass where Python's do (np.float32(0.1) was refused).
+    """
+    from ns_pz.monitor import MonitorFeatures, NoisyOracleMonitor, detection_reward
+
+    with pytest.raises(TypeError, match="change_times=5 must be a sequence"):
+        score_episode(5, [], 10)
+    with pytest.raises(TypeError, match="alarm_times=None must be a sequence"):
+        score_episode([5], None, 10)
+    assert score_episode(np.array([5]), np.array([6]), 10).delays == (1,)
+    with pytest.raises(ValueError, match=r"episodes\[1\]=\(\[5\], \[6\]\) must be"):
+        detection_metrics([([5], [5], 10), ([5], [6])])
+    with pytest.raises(TypeError, match="undetected_change='no' must be a bool"):
+        detection_reward("no", False)
+    with pytest.raises(TypeError, match="alarm=1 must be a bool"):
+        detection_reward(False, 1)
+    assert detection_reward(np.bool_(True), np.bool_(False)) == (-1.0, True)
+    assert NoisyOracleMonitor(miss_probability=np.float32(0.5)).miss_probability == 0.5
+    assert MonitorFeatures(horizon=5, unlikely=np.float32(0.25)).unlikely == 0.25
+    assert TabularCusumMonitor(scalar_points=np.int64(5)).scalar_points == 5
+    with pytest.raises(ValueError, match="grid_step=True"):
+        TabularCusumMonitor(grid_step=True)
+    with pytest.raises(ValueError, match="as a float it is 0.05000000074505806"):
+        TabularCusumMonitor(grid_step=np.float32(0.05))
+
+
 def test_detection_reward_sums_to_the_scores():
     """Summed over an episode: -(delays + undetected time of misses) - λ·false alarms."""
     from ns_pz.monitor import detection_reward

@@ -72,6 +72,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -192,17 +193,22 @@ class TabularCusumMonitor(Detector):
         change_scale: float = 0.2,
         params: Sequence[str] | None = None,
     ) -> None:
-        if not isinstance(grid_step, (int, float)) or not 0.0 < grid_step <= 1.0:
-            raise ValueError(f"grid_step={grid_step!r} must be in (0, 1] and divide 1")
-        if abs(round(1.0 / grid_step) * grid_step - 1.0) > 1e-9:
-            raise ValueError(f"grid_step={grid_step!r} must divide 1 (0.1, 0.05, 0.02, ...)")
-        if isinstance(scalar_points, bool) or not isinstance(scalar_points, int):
+        real = isinstance(grid_step, numbers.Real) and not isinstance(grid_step, bool)
+        step = float(grid_step) if real else math.nan
+        if not 0.0 < step <= 1.0:
+            raise ValueError(f"grid_step={grid_step!r} must be a number in (0, 1] that divides 1")
+        if abs(round(1.0 / step) * step - 1.0) > 1e-9:
+            raise ValueError(
+                f"grid_step={grid_step!r} must divide 1 (0.1, 0.05, 0.02, ...); as a float it "
+                f"is {step!r}"
+            )
+        if isinstance(scalar_points, bool) or not isinstance(scalar_points, (int, np.integer)):
             raise TypeError(f"scalar_points={scalar_points!r} must be an int >= 2")
-        if scalar_points < 2:
+        if int(scalar_points) < 2:
             raise ValueError(f"scalar_points={scalar_points!r} must be >= 2")
         self.threshold = positive_number("threshold", threshold)
-        self.grid_step = float(grid_step)
-        self.scalar_points = scalar_points
+        self.grid_step = step
+        self.scalar_points = int(scalar_points)
         self.change_scale = positive_number("change_scale", change_scale)
         self.watched = watched_names(params)
         self._grids: tuple[_ParamGrid, ...] = ()

@@ -171,8 +171,12 @@ class PredictionErrorMonitor(Detector):
             family.step(back, _any_action(family), theta0, rng)
         except Exception as error:  # noqa: BLE001 - any failure means the state is not readable
             raise TypeError(
-                f"{family!r}: the state cannot be read from the observation ({error}); give "
-                "the family a state_from_observation(observation) method"
+                f"{family!r}: the state cannot be read from the observation ({error}). "
+                "PredictionErrorMonitor replays transitions from observed states, so it serves "
+                "families whose observation is their state (CartPole, Pendulum, MountainCar, "
+                "Acrobot), not those whose observation leaves part of it out (the MuJoCo "
+                "tasks); a family of your own can give a state_from_observation(observation) "
+                "method"
             ) from None
         if again.shape != observed.shape or not np.allclose(again, observed, atol=1e-6):
             raise TypeError(

@@ -52,6 +52,7 @@ the policy sees in the game exactly what it saw in training.
 from __future__ import annotations
 
 import math
+import numbers
 from collections import deque
 from typing import Any
 
@@ -152,9 +153,8 @@ class MonitorFeatures:
         self.horizon = count("horizon", horizon)
         if not isinstance(evidence, bool):
             raise TypeError(f"evidence={evidence!r} must be a bool")
-        if isinstance(unlikely, bool) or not (
-            isinstance(unlikely, (int, float)) and 0.0 < unlikely < 1.0
-        ):
+        real = isinstance(unlikely, numbers.Real) and not isinstance(unlikely, bool)
+        if not 0.0 < (float(unlikely) if real else math.nan) < 1.0:
             raise ValueError(f"unlikely={unlikely!r} must be a probability in (0, 1)")
         self.evidence = evidence
         self.unlikely = float(unlikely)

@@ -17,6 +17,7 @@ yet reported change stays unknown to it, as to the agent.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
@@ -69,7 +70,7 @@ class NoisyOracleMonitor(Monitor):
             ("miss_probability", miss_probability),
             ("false_alarm_probability", false_alarm_probability),
         ):
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
                 raise TypeError(f"{name}={value!r} must be a number in [0, 1]")
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"{name}={value!r} must be in [0, 1]")

@@ -194,7 +194,7 @@ def detection_metrics(
         ValueError: See :func:`score_episode`.
     """
     scored = tuple(
-        score_episode(changes, alarms, steps, max_delay) for changes, alarms, steps in episodes
+        score_episode(*_episode(i, episode), max_delay) for i, episode in enumerate(episodes)
     )
     delays = [d for e in scored for d in e.delays]
     steps = sum(e.steps for e in scored)
@@ -256,8 +256,12 @@ def detection_reward(
         ``(reward, undetected_change after this transition)``.
 
     Raises:
+        TypeError: ``undetected_change`` or ``alarm`` is not a bool (NumPy's too).
         ValueError: A negative or non-finite ``false_alarm_cost``.
     """
+    for name, value in (("undetected_change", undetected_change), ("alarm", alarm)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise TypeError(f"{name}={value!r} must be a bool")
     if isinstance(false_alarm_cost, bool) or not (
         isinstance(false_alarm_cost, numbers.Real) and 0.0 <= false_alarm_cost < math.inf
     ):
@@ -354,7 +358,18 @@ def monitor_reward_value(
     return reward
 
 
+def _episode(index: int, episode: Any) -> tuple[Any, Any, Any]:
+    """``(changes, alarms, steps)`` of the ``index``-th episode given to detection_metrics."""
+    if isinstance(episode, (str, bytes)) or not isinstance(episode, Sequence) or len(episode) != 3:
+        raise ValueError(
+            f"episodes[{index}]={episode!r} must be (change times, alarm times, steps)"
+        )
+    return episode[0], episode[1], episode[2]
+
+
 def _check_times(name: str, times: Sequence[int], steps: int, first: int = 0) -> list[int]:
+    if isinstance(times, (str, bytes)) or not isinstance(times, (Sequence, np.ndarray)):
+        raise TypeError(f"{name}={times!r} must be a sequence of transition indices")
     result: list[int] = []
     for value in times:
         if (
