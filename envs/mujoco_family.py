@@ -154,6 +154,21 @@ class MujocoFamily(EnvFamily):
         self._warning_slots = tuple(int(w) for w in UNSTABLE_WARNINGS)
         self._planner: MujocoFamily | None = None
 
+    @property
+    def model(self) -> Any:
+        """The ``MjModel`` stepped, with θ written in: what Gymnasium's ``env.unwrapped.model`` is.
+
+        To read (``env.unwrapped.family.model.body_mass``), not to write: θ is the family's, and
+        an edit by hand is overwritten at the next change of θ and never reaches planning
+        copies, which step models of their own.
+        """
+        return self._model
+
+    @property
+    def data(self) -> Any:
+        """The ``MjData`` of the state last loaded or stepped (to read, as :attr:`model`)."""
+        return self._data
+
     def _probe_info(self) -> InfoLayout:
         """The keys and shapes of Gymnasium's reset and step info (one step from the rest pose)."""
         env = self._env

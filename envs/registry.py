@@ -135,7 +135,7 @@ def spec(env_id: str) -> NSEnvSpec:
     except KeyError:
         if env_id in MUJOCO_IDS:  # registered only with the extra, so it is missing
             raise UnknownEnvironment(
-                f"{env_id} needs MuJoCo, which is not installed: pip install \"ns_pz[mujoco]\""
+                f'{env_id} needs MuJoCo, which is not installed: pip install "ns_pz[mujoco]"'
             ) from None
         close = difflib.get_close_matches(env_id, _SPECS, n=3)
         hint = f" Did you mean {', '.join(map(repr, close))}?" if close else ""

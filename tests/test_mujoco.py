@@ -408,6 +408,19 @@ def test_a_mass_scales_its_inertia_unless_told_not_to():
     assert repr(family_of("Hopper", False)) == "HopperFamily(scale_inertia=False)"
 
 
+def test_the_model_a_view_steps_is_readable_as_gymnasiums_is():
+    """``env.unwrapped.family.model``/``.data``: θ's change is there, as in ``env.model``."""
+    env = ns_pz.make_gym("ns_pz/Hopper-v0")
+    env.reset(seed=0)
+    family = env.unwrapped.family
+    torso = family.model.body("torso").id
+    before = float(family.model.body_mass[torso])
+    env.unwrapped.set_params(torso_mass=2 * before)  # as a nature's change would
+    env.step(np.zeros(3, np.float32))
+    assert float(family.model.body_mass[torso]) == pytest.approx(2 * before)
+    assert family.data.qpos.shape == (family.model.nq,)
+
+
 def test_gravity_tilt_turns_the_compiled_vector_about_y():
     """InvertedDoublePendulum's compiled gravity has x = 1e-5: the tilt turns the whole vector."""
     family = family_of("InvertedDoublePendulum")
