@@ -51,29 +51,50 @@ def call_policy(
     return action
 
 
+class RecurrentMemory:
+    """A recurrent policy's memory within one episode: a fresh one at each episode's start."""
+
+    __slots__ = ("state", "episode_start")
+
+    def __init__(self) -> None:
+        self.state: Any = None
+        """The policy's hidden state, as its ``predict`` last returned it."""
+        self.episode_start = True
+        """Whether the policy has not acted yet this episode."""
+
+
 def call_recurrent_policy(
     policy: Any,
     observation: Any,
-    state: Any,
-    episode_start: bool,
+    memory: RecurrentMemory,
     *,
     deterministic: bool = True,
     rng: np.random.Generator | None = None,
-) -> tuple[Any, Any]:
-    """``(action, state)`` of a recurrent SB3-style model (sb3-contrib's ``RecurrentPPO``).
+) -> Any:
+    """A recurrent SB3-style model's action (sb3-contrib's ``RecurrentPPO``), ``memory`` carried.
+
+    ``predict`` is handed the state it returned last and whether the episode starts (the
+    model then resets its state); ``memory`` keeps what it returns for the next turn.
 
     Args:
         policy: A model whose ``predict`` takes ``state`` and ``episode_start``.
         observation: This turn's observation.
-        state: What the previous call returned (``None`` at an episode's first turn).
-        episode_start: Whether this is the episode's first turn (the model resets its state).
+        memory: This episode's memory of the policy (:class:`RecurrentMemory`).
         deterministic: As in :func:`call_policy`, as is ``rng`` (sampling reproducibly).
         rng: As in :func:`call_policy`.
     """
-    start = np.array([episode_start], dtype=bool)
-    return _predict(
-        policy.predict, policy, observation, deterministic, rng, state=state, episode_start=start
+    start = np.array([memory.episode_start], dtype=bool)
+    action, memory.state = _predict(
+        policy.predict,
+        policy,
+        observation,
+        deterministic,
+        rng,
+        state=memory.state,
+        episode_start=start,
     )
+    memory.episode_start = False
+    return action
 
 
 def _predict(
@@ -200,8 +221,7 @@ class DecisionPolicy:
         self._agent = is_agent(policy)
         self._recurrent = is_recurrent(policy)
         self._rng: np.random.Generator | None = None
-        self._state: Any = None
-        self._starts = True
+        self._memory = RecurrentMemory()
 
     def reset(self, rng: np.random.Generator) -> None:
         """Start an episode: ``rng`` drives an ns_pz agent, or an SB3 model's sampling.
@@ -210,7 +230,7 @@ class DecisionPolicy:
         carries its state from one step to the next within it.
         """
         self._rng = rng
-        self._state, self._starts = None, True
+        self._memory = RecurrentMemory()
         if self._agent:
             self.policy.reset(rng)
 
@@ -222,16 +242,13 @@ class DecisionPolicy:
             model = process.planning_model() if needs_model else None
             return self.policy.act(observation, model)
         if self._recurrent:
-            action, self._state = call_recurrent_policy(
+            return call_recurrent_policy(
                 self.policy,
                 observation,
-                self._state,
-                self._starts,
+                self._memory,
                 deterministic=self.deterministic,
                 rng=self._rng,
             )
-            self._starts = False
-            return action
         return call_policy(
             self.policy, observation, deterministic=self.deterministic, rng=self._rng
         )

@@ -14,6 +14,7 @@ import gymnasium as gym
 
 from ns_pz.seat_policies import (
     DecisionPolicy,
+    RecurrentMemory,
     call_policy,
     call_recurrent_policy,
     check_policy,
@@ -59,13 +60,12 @@ def episode_returns(
         observation, _ = env.reset(seed=seed, options=None if options is None else dict(options))
         if decide is not None:
             decide.reset(view.process.seat_rng())
-        total, done, state, starts = 0.0, False, None, True
+        total, done, memory = 0.0, False, RecurrentMemory()
         while not done:
             if decide is not None:
                 action = decide(view.process)
             elif recurrent:
-                action, state = call_recurrent_policy(policy, observation, state, starts)
-                starts = False
+                action = call_recurrent_policy(policy, observation, memory)
             else:
                 action = call_policy(policy, observation, deterministic=True)
             observation, reward, terminated, truncated, _ = env.step(action)

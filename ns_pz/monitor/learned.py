@@ -14,6 +14,7 @@ from ns_pz.monitor.monitors import Flags, Monitor, Sizes, as_flags
 from ns_pz.observations import monitor_flags_space, monitor_observation_space
 from ns_pz.params import Params
 from ns_pz.seat_policies import (
+    RecurrentMemory,
     call_policy,
     call_recurrent_policy,
     check_policy,
@@ -22,18 +23,15 @@ from ns_pz.seat_policies import (
 )
 
 
-class PolicyMonitorMemory:
+class PolicyMonitorMemory(RecurrentMemory):
     """One episode's memory of a :class:`PolicyMonitor`: its features' and its policy's."""
 
-    __slots__ = ("features", "state", "episode_start")
+    __slots__ = ("features",)
 
     def __init__(self, features: Any) -> None:
+        super().__init__()
         self.features = features
         """The :class:`~ns_pz.monitor.MonitorFeatures` memory (``None`` without features)."""
-        self.state: Any = None
-        """A recurrent policy's hidden state, as its ``predict`` last returned it."""
-        self.episode_start = True
-        """Whether the policy has not acted yet this episode."""
 
 
 class PolicyMonitor(Monitor):
@@ -135,15 +133,9 @@ class PolicyMonitor(Monitor):
             self.features.update(memory.features, observation)  # type: ignore[arg-type]
             seen = self.features.observation(observation, memory.features)  # type: ignore[arg-type]
         if self.recurrent:
-            answer, memory.state = call_recurrent_policy(
-                self.policy,
-                seen,
-                memory.state,
-                memory.episode_start,
-                deterministic=self.deterministic,
-                rng=rng,
+            answer = call_recurrent_policy(
+                self.policy, seen, memory, deterministic=self.deterministic, rng=rng
             )
-            memory.episode_start = False
         else:
             answer = call_policy(self.policy, seen, deterministic=self.deterministic, rng=rng)
         flags = as_flags(answer, self._count)
